@@ -1,0 +1,132 @@
+"""Trajectory recording: cheap appends during a run, arrays afterwards, ``.npz`` on disk.
+
+The simulation only records; rendering (``sim.render``) reads a finished :class:`Trajectory`.
+Files are written with ``allow_pickle=False`` semantics: every field is a plain numeric or
+unicode array.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+IDLE, DRIVING, WORKING = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Robot poses and task events of one run, as arrays."""
+
+    times_s: np.ndarray  # (T,)
+    positions: np.ndarray  # (T, m, 2) m
+    headings: np.ndarray  # (T, m) rad
+    robot_state: np.ndarray  # (T, m) int8: IDLE, DRIVING, WORKING
+    task_id: np.ndarray  # (N,)
+    task_type: np.ndarray  # (N,)
+    task_high: np.ndarray  # (N,) bool
+    task_xy: np.ndarray  # (N, 2) m
+    t_announce: np.ndarray  # (N,) s
+    t_alloc: np.ndarray  # (N,) s, NaN if lost
+    t_done: np.ndarray  # (N,) s, NaN if never done
+    task_robot: np.ndarray  # (N,) robot index, -1 if lost
+    arena_wh: np.ndarray  # (2,) m
+    obstacles: np.ndarray  # (P, V, 2) m, polygons padded with NaN
+    type_names: np.ndarray  # (n,) str
+    robot_names: np.ndarray  # (m,) str
+
+    def save(self, path: Path) -> None:
+        """Write an ``.npz`` atomically (temporary file, then rename)."""
+        path = Path(path)
+        tmp = path.with_name(path.name + ".tmp.npz")
+        np.savez_compressed(tmp, **{k: getattr(self, k) for k in self.__dataclass_fields__})
+        tmp.replace(path)
+
+    @classmethod
+    def load(cls, path: Path) -> Trajectory:
+        with np.load(Path(path), allow_pickle=False) as data:
+            return cls(**{k: data[k] for k in cls.__dataclass_fields__})
+
+
+class TrajectoryRecorder:
+    """Collects poses (from the world) and task events (from the experiment loop)."""
+
+    def __init__(self, arena_wh, obstacles, type_names, robot_names, every_s: float = 0.1) -> None:
+        self.every_s = every_s  # record poses at most this often (simulated seconds)
+        self.arena_wh = np.asarray(arena_wh, dtype=float)
+        width = max((len(p) for p in obstacles), default=0)
+        self.obstacles = np.full((len(obstacles), width, 2), np.nan)
+        for k, poly in enumerate(obstacles):
+            self.obstacles[k, : len(poly)] = poly
+        self.type_names = np.asarray(type_names, dtype=str)
+        self.robot_names = np.asarray(robot_names, dtype=str)
+        self._times: list[float] = []
+        self._pos: list[np.ndarray] = []
+        self._head: list[np.ndarray] = []
+        self._state: list[np.ndarray] = []
+        self._tasks: dict[int, list] = {}
+        self._next_t = -np.inf
+
+    def poses(self, t_s: float, positions, headings, states) -> None:
+        """Record robot poses if ``every_s`` has passed since the last record."""
+        if t_s + 1e-9 < self._next_t:
+            return
+        self._next_t = t_s + self.every_s
+        self._times.append(t_s)
+        self._pos.append(np.array(positions, dtype=np.float32))
+        self._head.append(np.array(headings, dtype=np.float32))
+        self._state.append(np.array(states, dtype=np.int8))
+
+    def announce(self, t_s: float, ids, types, high, sites) -> None:
+        for k, tid in enumerate(np.asarray(ids).tolist()):
+            xy = sites[k] if sites is not None else (np.nan, np.nan)
+            self._tasks[tid] = [
+                int(types[k]),
+                bool(high[k]),
+                float(xy[0]),
+                float(xy[1]),
+                t_s,
+                np.nan,
+                np.nan,
+                -1,
+            ]
+
+    def allocate(self, t_s: float, ids, assignment) -> None:
+        for tid, robot in zip(
+            np.asarray(ids).tolist(), np.asarray(assignment).tolist(), strict=True
+        ):
+            if robot >= 0:
+                self._tasks[tid][5] = t_s
+                self._tasks[tid][7] = robot
+
+    def done(self, task_id: int, t_s: float) -> None:
+        self._tasks[task_id][6] = t_s
+
+    def finish(self) -> Trajectory:
+        ids = np.array(sorted(self._tasks), dtype=np.int64)
+        rows = [self._tasks[i] for i in ids.tolist()]
+        col = (
+            (lambda k, dt: np.array([r[k] for r in rows], dtype=dt))
+            if rows
+            else (lambda k, dt: np.zeros(0, dtype=dt))
+        )
+        m = len(self.robot_names)
+        return Trajectory(
+            times_s=np.array(self._times, dtype=float),
+            positions=np.array(self._pos, dtype=np.float32).reshape(-1, m, 2),
+            headings=np.array(self._head, dtype=np.float32).reshape(-1, m),
+            robot_state=np.array(self._state, dtype=np.int8).reshape(-1, m),
+            task_id=ids,
+            task_type=col(0, np.int64),
+            task_high=col(1, bool),
+            task_xy=np.column_stack([col(2, float), col(3, float)]).reshape(-1, 2),
+            t_announce=col(4, float),
+            t_alloc=col(5, float),
+            t_done=col(6, float),
+            task_robot=col(7, np.int64),
+            arena_wh=self.arena_wh,
+            obstacles=self.obstacles,
+            type_names=self.type_names,
+            robot_names=self.robot_names,
+        )

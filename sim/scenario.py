@@ -1,0 +1,134 @@
+"""Scenario types: frozen, slotted dataclasses in SI units.
+
+A scenario is pure data. It is loaded and validated by ``scenarios.loader``; everything
+downstream (worlds, cost models, allocators) reads it and never changes it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True)
+class RobotSpec:
+    """One robot: its name, the task types it can do and (spatial worlds) where it starts."""
+
+    name: str
+    capabilities: tuple[int, ...]  # indices into Scenario.task_types
+    start_xy: tuple[float, float] | None = None  # m
+
+
+@dataclass(frozen=True, slots=True)
+class StreamSpec:
+    """How tasks are announced (paper §6, SPEC §1)."""
+
+    batch_min: int = 3
+    batch_max: int = 7
+    p_high: float = 0.35
+    n_sets: int = 45
+    rounds_per_set: int = 18  # 18 rounds x 5 tasks on average = about 90 tasks a set
+    learn_sets: int = 30  # sets 1..learn_sets learn
+    test_sets: int = 30  # the last test_sets sets are tested (they may overlap the learning sets)
+    announce_interval_s: float = 10.0
+
+
+@dataclass(frozen=True, slots=True)
+class LearningSpec:
+    """Tabular Q-learning parameters shared by QL-MRTA and ExpT-MRTA (SPEC §3)."""
+
+    alpha: float = 0.1
+    gamma: float = 0.9
+    epsilon_start: float = 0.3
+    epsilon_end: float = 0.02
+    epsilon_decay: float = 0.9  # multiplied once per learning set
+    history: int = 4
+    reward_high: float = 5.0  # a high-priority task taken
+    reward_low: float = 1.0  # a low-priority task taken
+    penalty_lost_high: float = 5.0  # per capable high-priority task lost while busy with a low one
+
+
+@dataclass(frozen=True, slots=True)
+class ExperienceSpec:
+    """ExpT-MRTA thresholds (SPEC §4)."""
+
+    delta_v: float = 0.2
+    delta_u: float = 0.5
+    n_min: int = 20
+    coverage_k: int = 2
+    sticky_b1: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class DriveSpec:
+    """Differential-drive robot body (spatial worlds)."""
+
+    radius_m: float = 0.25
+    mass_kg: float = 20.0
+    wheel_base_m: float = 0.4
+    wheel_radius_m: float = 0.08
+    max_wheel_speed_radps: float = 18.75  # 1.5 m/s top speed with 0.08 m wheels
+    max_wheel_accel_radps2: float = 25.0
+
+    @property
+    def max_speed_mps(self) -> float:
+        return self.max_wheel_speed_radps * self.wheel_radius_m
+
+
+@dataclass(frozen=True, slots=True)
+class SpatialSpec:
+    """Arena, obstacles and task sites of a spatial world (SPEC §6)."""
+
+    width_m: float
+    height_m: float
+    obstacles: tuple[tuple[tuple[float, float], ...], ...]  # convex polygons, m
+    sites: tuple[tuple[tuple[float, float], ...], ...]  # per task type: candidate task points, m
+    drive: DriveSpec = field(default_factory=DriveSpec)
+    dt_s: float = 1.0 / 60.0
+    control_hz: float = 20.0
+    arrive_tol_m: float = 0.3
+    grid_res_m: float = 0.25
+    stuck_timeout_s: float = 20.0
+
+
+@dataclass(frozen=True, slots=True)
+class Scenario:
+    """The whole experiment: robots, task types, costs, stream and allocator parameters."""
+
+    name: str
+    task_types: tuple[str, ...]
+    robots: tuple[RobotSpec, ...]
+    cost: tuple[tuple[float, ...], ...]  # abstract cost c(R_j, T_i); inf where incapable
+    exec_time_s: tuple[float, ...]  # per task type
+    stream: StreamSpec = field(default_factory=StreamSpec)
+    learning: LearningSpec = field(default_factory=LearningSpec)
+    experience: ExperienceSpec = field(default_factory=ExperienceSpec)
+    spatial: SpatialSpec | None = None
+    source: str = ""  # file the scenario came from
+    source_sha256: str = ""
+
+    @property
+    def n_robots(self) -> int:
+        return len(self.robots)
+
+    @property
+    def n_types(self) -> int:
+        return len(self.task_types)
+
+    def capability_matrix(self) -> np.ndarray:
+        """Boolean (robots x types) matrix: True where the robot can do the type."""
+        cap = np.zeros((self.n_robots, self.n_types), dtype=bool)
+        for j, robot in enumerate(self.robots):
+            cap[j, list(robot.capabilities)] = True
+        return cap
+
+    def cost_matrix(self) -> np.ndarray:
+        """Abstract cost (robots x types), ``inf`` where the robot is not capable."""
+        cost = np.array(self.cost, dtype=float)
+        cost[~self.capability_matrix()] = np.inf
+        return cost
+
+    def test_set_indices(self) -> range:
+        """Zero-based indices of the test sets: the last ``test_sets`` sets."""
+        return range(self.stream.n_sets - self.stream.test_sets, self.stream.n_sets)

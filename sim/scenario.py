@@ -54,8 +54,8 @@ class ExperienceSpec:
     """ExpT-MRTA thresholds (SPEC §4)."""
 
     delta_v: float = 0.2
-    delta_u: float = 0.5
-    n_min: int = 20
+    delta_u: float = 0.08
+    n_min: int = 40
     coverage_k: int = 2
     sticky_b1: bool = True
 

@@ -1,0 +1,220 @@
+"""Result figures of ``mrta reproduce`` (paper Fig. 1, Fig. 2 and the calibration trade-off).
+
+matplotlib is imported lazily and used through the Agg canvas directly, so importing this
+module, or calling it from a program with another backend, changes nothing. Every bar and line
+carries a ``gid`` so tests can read the drawn values back and compare them with metrics.json.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+ALLOCATOR_COLOURS = {"market": "#4c72b0", "ql": "#dd8452", "expt": "#55a868"}
+ALLOCATOR_LABELS = {"market": "Market (MRTA)", "ql": "QL-MRTA", "expt": "ExpT-MRTA"}
+BEHAVIOUR_LABELS = ("B0 regular", "B1 eager/hesitant", "B2 refused")
+STYLE = {
+    "font.size": 10,
+    "axes.titlesize": 11,
+    "axes.labelsize": 10,
+    "legend.fontsize": 9,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+}
+
+
+def _figure(w_in: float, h_in: float):
+    import matplotlib as mpl
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    with mpl.rc_context(STYLE):
+        fig = Figure(figsize=(w_in, h_in), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig, path: Path | None) -> None:
+    if path is not None:
+        path = Path(path)
+        tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
+        fig.savefig(tmp)
+        tmp.replace(path)
+
+
+def allocator_colour(name: str, k: int = 0) -> str:
+    return ALLOCATOR_COLOURS.get(name, f"C{k + 3}")
+
+
+def fig_completion(metrics: dict, path: Path | None = None):
+    """Paper Fig. 1: completion ratio per task type and priority, allocators side by side, CI95."""
+    allocs = list(metrics["allocators"])
+    types = list(metrics["allocators"][allocs[0]]["completion"]["by_type"])
+    panels = [types[i : i + 2] for i in range(0, len(types), 2)]
+    cols = 2 if len(panels) > 1 else 1
+    rows = math.ceil(len(panels) / cols)
+    import matplotlib as mpl
+
+    with mpl.rc_context(STYLE):
+        fig = _figure(4.2 * cols, 2.9 * rows)
+        axes = fig.subplots(rows, cols, squeeze=False).ravel()
+        width = 0.8 / len(allocs)
+        for ax, pair, letter in zip(axes, panels, "abcdefghijklmnopqrstuvwxyz", strict=False):
+            groups = [(t, p) for t in pair for p in ("low", "high")]
+            x = np.arange(len(groups))
+            for k, name in enumerate(allocs):
+                comp = metrics["allocators"][name]["completion"]
+                vals = [comp["by_type"][t][p] for t, p in groups]
+                errs = [comp["ci95"]["by_type"][t][p] for t, p in groups]
+                bars = ax.bar(
+                    x + (k - (len(allocs) - 1) / 2) * width,
+                    vals,
+                    width,
+                    yerr=errs,
+                    capsize=2,
+                    color=allocator_colour(name, k),
+                    label=ALLOCATOR_LABELS.get(name, name),
+                    error_kw={"elinewidth": 0.8},
+                )
+                for bar, (t, p) in zip(bars, groups, strict=True):
+                    bar.set_gid(f"{name}|{t}|{p}")
+            ax.set_xticks(x, [f"{t}\n{p}" for t, p in groups])
+            ax.set_ylim(0, 1.05)
+            ax.set_ylabel("completion ratio")
+            ax.set_title(f"({letter}) {' and '.join(pair)}")
+            ax.grid(axis="y", alpha=0.3)
+        for ax in axes[len(panels) :]:
+            ax.set_visible(False)
+        axes[0].legend(loc="lower left", ncols=len(allocs), frameon=False)
+        scen = metrics.get("scenario", "")
+        n = len(metrics.get("seeds", []))
+        fig.suptitle(f"Task completion ratio on the test sets ({scen}, {n} seeds, 95% CI)")
+    _save(fig, path)
+    return fig
+
+
+def fig_robot_trace(trace: dict, path: Path | None = None):
+    """Paper Fig. 2: TEM per task, behaviour per task and learning-space size of one robot."""
+    import matplotlib as mpl
+
+    rounds = np.asarray(trace["round"])
+    caps = trace["capabilities"]
+    all_types = trace["task_types"]
+    tem = np.asarray(trace["tem"])
+    beh = np.asarray(trace["behaviour"])
+    with mpl.rc_context(STYLE):
+        fig = _figure(6.4, 7.0)
+        ax_u, ax_b, ax_s = fig.subplots(3, 1, sharex=True)
+        for k, t in enumerate(caps):
+            i = all_types.index(t)
+            colour = f"C{i % 10}"
+            (line,) = ax_u.plot(rounds, tem[:, i], color=colour, label=t, lw=1.4)
+            line.set_gid(f"tem|{t}")
+            offset = 0.08 * (k - (len(caps) - 1) / 2)
+            (step,) = ax_b.step(rounds, beh[:, i] + offset, where="post", color=colour, label=t)
+            step.set_gid(f"behaviour|{t}")
+        ax_u.axhline(1.0, color="0.6", lw=0.8, ls=":")
+        ax_u.set_ylabel("TEM $u$")
+        ax_u.set_title(f"(a) Task experience measure of {trace['robot']}")
+        ax_u.legend(ncols=len(caps), frameon=False, loc="upper left")
+        ax_b.set_yticks([0, 1, 2], BEHAVIOUR_LABELS)
+        ax_b.set_ylim(-0.4, 2.4)
+        ax_b.set_title(f"(b) Behaviour of {trace['robot']} per task")
+        (space,) = ax_s.step(rounds, trace["space"], where="post", color="k")
+        space.set_gid("space")
+        ax_s.set_yscale("log")
+        ax_s.set_ylabel("|S| x |A|")
+        ax_s.set_xlabel("announcement round (learning sets)")
+        ax_s.set_title(f"(c) Learning-space dimension of {trace['robot']}")
+        levels = sorted(set(int(v) for v in trace["space"]))
+        ax_s.set_yticks(levels, [str(v) for v in levels])
+        ax_s.minorticks_off()
+        for ax in (ax_u, ax_b, ax_s):
+            ax.grid(alpha=0.3)
+    _save(fig, path)
+    return fig
+
+
+def fig_tradeoff(points: list[dict], references: dict, path: Path | None = None):
+    """Final learning space against overall completion as delta_u varies (CI95 both ways)."""
+    import matplotlib as mpl
+
+    with mpl.rc_context(STYLE):
+        fig = _figure(9.6, 3.9)
+        ax, ax2 = fig.subplots(1, 2)
+        xs = [p["space"] for p in points]
+        ys = [p["all"] for p in points]
+        ax.errorbar(
+            xs,
+            ys,
+            xerr=[p["space_ci95"] for p in points],
+            yerr=[p["all_ci95"] for p in points],
+            fmt="o-",
+            color=ALLOCATOR_COLOURS["expt"],
+            label="ExpT-MRTA",
+            capsize=2,
+            gid="expt",
+        )
+        for p in points:
+            ax.annotate(
+                f"δu={p['delta_u']:g}",
+                (p["space"], p["all"]),
+                textcoords="offset points",
+                xytext=(4, 4),
+                fontsize=8,
+            )
+        for name, ref in references.items():
+            if ref.get("space"):
+                ax.errorbar(
+                    [ref["space"]],
+                    [ref["all"]],
+                    yerr=[ref["all_ci95"]],
+                    fmt="s",
+                    color=allocator_colour(name),
+                    label=ALLOCATOR_LABELS.get(name, name),
+                    capsize=2,
+                )
+            else:
+                ax.axhline(
+                    ref["all"],
+                    color=allocator_colour(name),
+                    ls="--",
+                    lw=1,
+                    label=f"{ALLOCATOR_LABELS.get(name, name)} (no learning)",
+                )
+        ax.set_xscale("log")
+        ax.set_xlabel("final learning space, sum over robots of |S| x |A| (log)")
+        ax.set_ylabel("completion ratio, all tasks")
+        ax.set_title("(a) Learning space against completion")
+        ax.legend(frameon=False, fontsize=8)
+        ax.grid(alpha=0.3)
+        du = [p["delta_u"] for p in points]
+        for prio, style in (("high", "-"), ("low", "--")):
+            ax2.errorbar(
+                du,
+                [p[prio] for p in points],
+                yerr=[p[f"{prio}_ci95"] for p in points],
+                fmt="o" + style,
+                color=ALLOCATOR_COLOURS["expt"],
+                capsize=2,
+                label=f"ExpT-MRTA, {prio} priority",
+            )
+            ref = references.get("ql")
+            if ref:
+                ax2.axhline(
+                    ref[prio],
+                    color=ALLOCATOR_COLOURS["ql"],
+                    ls=style,
+                    lw=1,
+                    label=f"QL-MRTA, {prio} priority",
+                )
+        ax2.set_xscale("log")
+        ax2.set_xlabel("refusal threshold δu (log)")
+        ax2.set_ylabel("completion ratio")
+        ax2.set_title("(b) Completion by priority against δu")
+        ax2.legend(frameon=False, fontsize=8)
+        ax2.grid(alpha=0.3)
+    _save(fig, path)
+    return fig

@@ -1,0 +1,138 @@
+"""Per-run summaries and their aggregation over seeds (means, 95% confidence intervals).
+
+The summary of one run is a plain JSON-able dict; ``aggregate`` turns a list of them (one per
+seed) into the ``metrics.json`` entry of an allocator (schema in the README).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from learning.episode import RunRecord
+from learning.qlmrta import joint_log10
+from sim.scenario import Scenario
+from sim.tasks import TaskStream
+
+PRIORITIES = ("low", "high")
+
+
+def _ratio(allocated: int, announced: int) -> float:
+    return allocated / announced if announced else float("nan")
+
+
+def summarize_run(scenario: Scenario, stream: TaskStream, record: RunRecord, learns: bool) -> dict:
+    """JSON-able summary of one run: test-phase completion, tasks, learning space, experience."""
+    ids, assigned = record.test.arrays()
+    high = stream.high[ids]
+    types = stream.types[ids]
+    taken = assigned >= 0
+    by_type = {}
+    for i, name in enumerate(scenario.task_types):
+        sel = types == i
+        by_type[name] = {
+            "low": _ratio(int((taken & sel & ~high).sum()), int((sel & ~high).sum())),
+            "high": _ratio(int((taken & sel & high).sum()), int((sel & high).sum())),
+        }
+    out: dict[str, Any] = {
+        "completion": {
+            "overall": {
+                "low": _ratio(int((taken & ~high).sum()), int((~high).sum())),
+                "high": _ratio(int((taken & high).sum()), int(high.sum())),
+                "all": _ratio(int(taken.sum()), int(taken.size)),
+            },
+            "by_type": by_type,
+        },
+        "tasks": {"announced": int(taken.size), "allocated": int(taken.sum())},
+    }
+    if learns:
+        names = [r.name for r in scenario.robots]
+        out["learning_space"] = {
+            "initial": int(record.space_initial.sum()),
+            "final": int(record.space_final.sum()),
+            "joint_log10": joint_log10(record.space_final),
+            "joint_log10_initial": joint_log10(record.space_initial),
+            "per_robot_initial": dict(zip(names, record.space_initial.tolist(), strict=True)),
+            "per_robot_final": dict(zip(names, record.space_final.tolist(), strict=True)),
+        }
+        out["capabilities"] = {
+            r.name: [scenario.task_types[i] for i in r.capabilities] for r in scenario.robots
+        }
+        out["experienced_tasks"] = {
+            name: [scenario.task_types[i] for i in np.flatnonzero(row)]
+            for name, row in zip(names, record.willing_final, strict=True)
+        }
+    return out
+
+
+def ci95(values: list[float]) -> float:
+    """Half-width of the two-sided 95% Student-t confidence interval of the mean."""
+    arr = np.asarray([v for v in values if not math.isnan(v)], dtype=float)
+    if arr.size < 2:
+        return float("nan")
+    return float(stats.t.ppf(0.975, arr.size - 1) * arr.std(ddof=1) / math.sqrt(arr.size))
+
+
+def _mean(values: list[float]) -> float:
+    arr = np.asarray([v for v in values if not math.isnan(v)], dtype=float)
+    return float(arr.mean()) if arr.size else float("nan")
+
+
+def _stat_tree(runs: list[dict], get) -> tuple[dict, dict, dict]:
+    """(means, ci95, per-seed lists) for a nested dict of numbers picked by ``get``."""
+    first = get(runs[0])
+    if isinstance(first, dict):
+        parts = {k: _stat_tree(runs, lambda r, k=k: get(r)[k]) for k in first}
+        return tuple({k: v[n] for k, v in parts.items()} for n in range(3))  # type: ignore[return-value]
+    values = [get(r) for r in runs]
+    return _mean(values), ci95(values), values
+
+
+def aggregate(runs: list[dict]) -> dict:
+    """Combine per-seed summaries of one allocator into its metrics.json entry."""
+    mean, half, per_seed = _stat_tree(runs, lambda r: r["completion"])
+    out: dict[str, Any] = {
+        "completion": {**mean, "ci95": half, "per_seed": per_seed},
+        "tasks": {
+            "announced": sum(r["tasks"]["announced"] for r in runs),
+            "allocated": sum(r["tasks"]["allocated"] for r in runs),
+            "per_seed": [r["tasks"] for r in runs],
+        },
+    }
+    if "learning_space" in runs[0]:
+        spaces = [r["learning_space"] for r in runs]
+        finals = [s["final"] for s in spaces]
+        robots = list(spaces[0]["per_robot_final"])
+        out["learning_space"] = {
+            "initial": spaces[0]["initial"],
+            "final": _mean(finals),
+            "final_ci95": ci95(finals),
+            "joint_log10": _mean([s["joint_log10"] for s in spaces]),
+            "joint_log10_initial": spaces[0]["joint_log10_initial"],
+            "per_robot_initial": spaces[0]["per_robot_initial"],
+            "per_robot_final": {
+                name: _mean([s["per_robot_final"][name] for s in spaces]) for name in robots
+            },
+            "per_seed": {
+                "final": finals,
+                "per_robot_final": [s["per_robot_final"] for s in spaces],
+            },
+        }
+        kept = [r["experienced_tasks"] for r in runs]
+        out["experienced_tasks"] = kept[0]
+        out["experienced_tasks_share"] = {
+            name: {t: sum(t in k[name] for k in kept) / len(kept) for t in _types_of(runs[0], name)}
+            for name in robots
+        }
+    if "spatial" in runs[0]:
+        mean, half, per_seed = _stat_tree(runs, lambda r: r["spatial"])
+        out["spatial"] = {**mean, "ci95": half, "per_seed": per_seed}
+    return out
+
+
+def _types_of(run: dict, robot: str) -> list[str]:
+    """Task types a robot could do at the start (its Table 1 row), from the summary."""
+    return run["capabilities"][robot]

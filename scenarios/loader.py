@@ -188,8 +188,10 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
 
 
 def _did_you_mean(word: str, options) -> str:
-    close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    """' (did you mean 'x'?)' for the closest option, ignoring case; '' if none is close."""
+    lower = {str(o).lower(): o for o in options}
+    close = difflib.get_close_matches(word.lower(), list(lower), n=1, cutoff=0.6)
+    return f" (did you mean {lower[close[0]]!r}?)" if close else ""
 
 
 class _Validator:

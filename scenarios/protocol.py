@@ -25,6 +25,7 @@ from learning import ALLOCATORS
 from learning.episode import run_protocol
 from scenarios.loader import load_scenario
 from scenarios.metrics import summarize_run
+from sim import make_world
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
 
@@ -68,17 +69,6 @@ def apply_overrides(scenario: Scenario, overrides: Sequence[tuple[str, float]]) 
             scenario, **{section: dataclasses.replace(spec, **{key: value})}
         )
     return scenario
-
-
-def make_world(scenario: Scenario):
-    """The abstract world, or the pymunk world for scenarios with a [spatial] table."""
-    if scenario.spatial is None:
-        from sim.world import AbstractWorld
-
-        return AbstractWorld(scenario)
-    from sim.physics import PymunkWorld
-
-    return PymunkWorld(scenario)
 
 
 def check_cost(scenario: Scenario, cost: str) -> None:

@@ -1,0 +1,179 @@
+"""Gymnasium environment: the centralised view of the allocation loop.
+
+One step is one announcement round. The observation holds every robot's state (free or busy,
+seconds of work left, TEM per task type) and the announced batch padded to ``MAX_SLOTS``
+slots (type, priority, validity). The action says, for every robot and slot, bid (1) or wait
+(0); bids from busy robots, for empty slots or for types a robot cannot do are ignored. The
+market's exact priority auction resolves the bids. The team reward follows SPEC §3:
+``reward_high`` per high-priority task taken, ``reward_low`` per low-priority task taken, and
+``-penalty_lost_high`` for each high-priority task lost while a robot that could have done it
+was busy with a low-priority task.
+
+An episode plays the sets of one seeded stream (all sets by default, or only the test sets),
+exactly as :func:`learning.episode.run_protocol` does.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from allocation.auction import solve_priority_assignment
+from allocation.costs import make_cost_model
+from learning.experience import ExperienceModel
+from sim import make_world
+from sim.scenario import Scenario
+from sim.tasks import generate_stream
+
+MAX_SLOTS = 7
+BUSY_CAP_S = 1.0e6  # observation bound on seconds of work left (clipped)
+
+
+class AllocationEnv(gym.Env):
+    """``mrta/Allocation-v0``: bid/wait decisions of all robots for one announced batch a step."""
+
+    metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        cost: str = "abstract",
+        sets: str = "all",
+        render_mode: str | None = None,
+    ) -> None:
+        self.scenario = sc = scenario
+        if sc.stream.batch_max > MAX_SLOTS:
+            raise ValueError(f"batch_max {sc.stream.batch_max} exceeds the env's {MAX_SLOTS} slots")
+        if sets not in ("all", "test"):
+            raise ValueError(f"sets must be 'all' or 'test', got {sets!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.sets = sets
+        self.render_mode = render_mode
+        self.capable = sc.capability_matrix()
+        self.world = make_world(sc)
+        self.cost_model = make_cost_model(cost, sc, getattr(self.world, "planner", None))
+        m, n = sc.n_robots, sc.n_types
+        self.observation_space = spaces.Dict(
+            {
+                "free": spaces.MultiBinary(m),
+                "busy_s": spaces.Box(0.0, BUSY_CAP_S, (m,), np.float32),
+                "experience": spaces.Box(0.0, 2.0, (m, n), np.float32),
+                "task_type": spaces.MultiDiscrete(np.full(MAX_SLOTS, n)),
+                "task_high": spaces.MultiBinary(MAX_SLOTS),
+                "task_valid": spaces.MultiBinary(MAX_SLOTS),
+            }
+        )
+        self.action_space = spaces.MultiBinary((m, MAX_SLOTS))
+
+    # -- gymnasium API -------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
+        stream_ss, world_ss, _ = np.random.SeedSequence(run_seed).spawn(3)
+        self.stream_ = generate_stream(self.scenario, np.random.default_rng(stream_ss))
+        self.world.reset(np.random.default_rng(world_ss))
+        spec = self.scenario.experience
+        self.experience_ = ExperienceModel(
+            self.capable, type(spec)(delta_v=spec.delta_v, delta_u=0.0)
+        )
+        all_sets = list(range(self.scenario.stream.n_sets))
+        self.set_order_ = all_sets if self.sets == "all" else list(self.scenario.test_set_indices())
+        self.batches_ = iter([b for s in self.set_order_ for b in self.stream_.batches(s)])
+        self.busy_low_ = np.zeros(self.scenario.n_robots, dtype=bool)
+        self.announced_ = np.zeros((2,), dtype=np.int64)  # low, high
+        self.allocated_ = np.zeros((2,), dtype=np.int64)
+        self._next_batch()
+        return self._obs(), self._info()
+
+    def step(self, action):
+        sc, batch = self.scenario, self.batch_
+        action = np.asarray(action, dtype=bool).reshape(sc.n_robots, MAX_SLOTS)[:, : len(batch)]
+        state = self.world.snapshot()
+        self.busy_low_ &= ~state.free
+        costs = self.cost_model.costs(state, batch)
+        bid = action & state.free[:, None] & np.isfinite(costs)
+        bids = np.where(bid, costs, np.inf)
+        assignment = solve_priority_assignment(bids, batch.high)
+        for t in range(len(batch)):
+            self.experience_.observe_auction(
+                int(batch.types[t]), np.flatnonzero(bid[:, t]), int(assignment[t])
+            )
+        won = assignment >= 0
+        lost_high = batch.types[~won & batch.high]
+        p = sc.learning
+        reward = p.reward_high * float((won & batch.high).sum()) + p.reward_low * float(
+            (won & ~batch.high).sum()
+        )
+        reward -= p.penalty_lost_high * float(
+            sum(bool((self.busy_low_ & self.capable[:, i]).any()) for i in lost_high)
+        )
+        np.add.at(self.announced_, batch.high.astype(int), 1)
+        np.add.at(self.allocated_, batch.high[won].astype(int), 1)
+        won_bid = np.full(len(batch), np.nan)
+        won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
+        self.world.apply(batch, assignment, won_bid)
+        self.busy_low_[assignment[won]] = ~batch.high[won]
+        self.world.advance(sc.stream.announce_interval_s)
+        self.last_assignment_ = assignment
+        terminated = not self._next_batch()
+        return self._obs(), reward, terminated, False, self._info()
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        from sim.render_env import env_frame
+
+        return env_frame(self)
+
+    # -- helpers -------------------------------------------------------------------------------
+    def _next_batch(self) -> bool:
+        """Advance to the next non-empty round; drain the world between sets."""
+        previous = getattr(self, "batch_", None)
+        for batch in self.batches_:
+            if previous is not None and batch.set_index != previous.set_index:
+                self.world.drain()
+                self.busy_low_[:] = False
+            self.batch_ = batch
+            return True
+        self.world.drain()
+        return False
+
+    def _obs(self) -> dict[str, np.ndarray]:
+        state = self.world.snapshot()
+        k = len(self.batch_)
+        types = np.zeros(MAX_SLOTS, dtype=np.int64)
+        high = np.zeros(MAX_SLOTS, dtype=np.int8)
+        valid = np.zeros(MAX_SLOTS, dtype=np.int8)
+        types[:k], high[:k], valid[:k] = self.batch_.types, self.batch_.high, 1
+        return {
+            "free": state.free.astype(np.int8),
+            "busy_s": np.clip(state.busy_until_s - state.time_s, 0.0, BUSY_CAP_S).astype(
+                np.float32
+            ),
+            "experience": self.experience_.u_.astype(np.float32),
+            "task_type": types,
+            "task_high": high,
+            "task_valid": valid,
+        }
+
+    def _info(self) -> dict[str, Any]:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = self.allocated_ / self.announced_
+        return {
+            "set": int(self.batch_.set_index),
+            "round": int(self.batch_.round_index),
+            "announced": {"low": int(self.announced_[0]), "high": int(self.announced_[1])},
+            "allocated": {"low": int(self.allocated_[0]), "high": int(self.allocated_[1])},
+            "completion": {"low": float(ratio[0]), "high": float(ratio[1])},
+        }
+
+
+def market_policy(env: AllocationEnv, obs: dict[str, np.ndarray]) -> np.ndarray:
+    """The market baseline as a policy: every free robot bids for every valid task it can do."""
+    types = obs["task_type"]
+    can = env.capable[:, types] & obs["task_valid"].astype(bool)[None, :]
+    return (can & obs["free"].astype(bool)[:, None]).astype(np.int8)

@@ -1,0 +1,20 @@
+"""Gymnasium entry points: compose a scenario file with the environments of ``learning``."""
+
+from __future__ import annotations
+
+from learning.gym_env import AllocationEnv
+from scenarios.loader import load_scenario
+from scenarios.protocol import check_cost
+from sim.scenario import Scenario
+
+
+def make_allocation_env(
+    scenario: str | Scenario = "paper",
+    cost: str = "abstract",
+    sets: str = "all",
+    render_mode: str | None = None,
+) -> AllocationEnv:
+    """``gymnasium.make("mrta/Allocation-v0", scenario="paper")`` lands here."""
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    check_cost(sc, cost)
+    return AllocationEnv(sc, cost=cost, sets=sets, render_mode=render_mode)

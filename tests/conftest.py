@@ -1,0 +1,40 @@
+"""Shared fixtures: small hand-built scenarios."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from scenarios.loader import load_scenario
+from sim.scenario import RobotSpec, Scenario, StreamSpec
+
+
+@pytest.fixture(scope="session")
+def paper() -> Scenario:
+    return load_scenario("paper")
+
+
+@pytest.fixture(scope="session")
+def small_paper(paper) -> Scenario:
+    """The paper scenario with a short stream: 6 sets (4 learn, last 3 test) of 6 rounds."""
+    stream = dataclasses.replace(
+        paper.stream, n_sets=6, rounds_per_set=6, learn_sets=4, test_sets=3
+    )
+    exp = dataclasses.replace(paper.experience, n_min=3, delta_u=0.5)
+    return dataclasses.replace(paper, stream=stream, experience=exp)
+
+
+@pytest.fixture()
+def tiny() -> Scenario:
+    """Three robots, two types: R1 {A}, R2 {A, B}, R3 {B}."""
+    return Scenario(
+        name="tiny",
+        task_types=("A", "B"),
+        robots=(RobotSpec("R1", (0,)), RobotSpec("R2", (0, 1)), RobotSpec("R3", (1,))),
+        cost=((1.0, float("inf")), (2.0, 2.0), (float("inf"), 1.0)),
+        exec_time_s=(15.0, 15.0),
+        stream=StreamSpec(
+            n_sets=4, rounds_per_set=5, learn_sets=3, test_sets=2, batch_min=1, batch_max=3
+        ),
+    )

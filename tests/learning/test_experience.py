@@ -1,0 +1,99 @@
+"""TEP/TEM formulas against hand-computed values, behaviours and the coverage guard."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from learning.experience import B0_REGULAR, B1_EAGER_HESITANT, B2_REFUSED, ExperienceModel, tep
+from sim.scenario import ExperienceSpec
+
+
+@pytest.mark.parametrize(
+    ("eta", "mu", "expected"),
+    [
+        (0, 0, 1.0),
+        (1, 0, 2 / (1 + math.exp(-1))),  # 1.4621171572600098
+        (0, 2, 2 / (1 + math.exp(2))),  # 0.2384058440442351
+        (3, 1.5, 2 / (1 + math.exp(-1.5))),
+    ],
+)
+def test_tep_matches_equation_5(eta, mu, expected):
+    assert float(tep(eta, mu)) == pytest.approx(expected, rel=1e-15)
+
+
+def test_tep_is_stable_for_huge_differences():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflow in exp would raise here
+        big = tep(np.array([900.0, 0.0, 1e6]), np.array([0.0, 900.0, 0.0]))
+    assert big[0] == 2.0 and big[2] == 2.0
+    assert 0.0 <= big[1] < 1e-300
+    assert np.isfinite(big).all()
+
+
+def test_tem_is_the_mean_of_tep_per_auction_bid():
+    # Two robots bid in three T0 auctions: R0 wins the first, R1 the next two.
+    exp = ExperienceModel(np.ones((2, 1), dtype=bool), ExperienceSpec(delta_u=0.0))
+    assert exp.u_[0, 0] == 1.0  # u = 1 before any auction
+    both = np.array([0, 1])
+    for winner in (0, 1, 1):
+        exp.observe_auction(0, both, winner)
+    # R0: (eta, mu) = (1, .5), (1, 1), (1, 1.5); R1: (0, .5), (1, 1), (2, 1.5)
+    v0 = [2 / (1 + math.exp(-0.5)), 1.0, 2 / (1 + math.exp(0.5))]
+    v1 = [2 / (1 + math.exp(0.5)), 1.0, 2 / (1 + math.exp(-0.5))]
+    assert exp.u_[0, 0] == pytest.approx(sum(v0) / 3, rel=1e-15)
+    assert exp.u_[1, 0] == pytest.approx(sum(v1) / 3, rel=1e-15)
+    assert exp.eta_.ravel().tolist() == [1.0, 2.0]
+    assert exp.mu_.ravel().tolist() == [1.5, 1.5]
+
+
+def test_mu_adds_one_over_number_of_bidders_only_for_bidders():
+    exp = ExperienceModel(np.ones((4, 1), dtype=bool), ExperienceSpec())
+    exp.observe_auction(0, np.array([0, 2, 3]), 2)
+    assert exp.mu_.ravel().tolist() == pytest.approx([1 / 3, 0.0, 1 / 3, 1 / 3])
+    assert exp.count_.ravel().tolist() == [1, 0, 1, 1]
+
+
+def test_behaviour_one_starts_at_delta_v_inclusive():
+    # v after one lost auction alone: eta - mu = -1 -> v = 0.5378828427399902, |v - 1| = 0.462...
+    v = float(tep(0, 1))
+    for delta_v, expected in ((abs(v - 1), B1_EAGER_HESITANT), (abs(v - 1) + 1e-9, B0_REGULAR)):
+        exp = ExperienceModel(np.ones((1, 1), dtype=bool), ExperienceSpec(delta_v=delta_v))
+        exp.observe_auction(0, np.array([0]), -1)
+        assert exp.behaviour_[0, 0] == expected
+
+
+def test_bid_scale_is_tem_in_behaviour_one_only():
+    exp = ExperienceModel(np.ones((2, 1), dtype=bool), ExperienceSpec(delta_v=0.1))
+    exp.observe_auction(0, np.array([0]), -1)  # R0 loses alone: v = 0.5379, B1
+    scale = exp.bid_scale()
+    assert scale[0, 0] == pytest.approx(float(tep(0, 1)))
+    assert scale[1, 0] == 1.0
+
+
+def test_refusal_needs_n_min_observations_and_low_tem():
+    spec = ExperienceSpec(delta_u=0.7, n_min=3, coverage_k=1)
+    exp = ExperienceModel(np.ones((2, 1), dtype=bool), spec)
+    for _ in range(2):
+        exp.observe_auction(0, np.array([0, 1]), 1)
+    assert exp.u_[0, 0] < 0.7  # (0.755 + 0.538) / 2 = 0.646
+    assert exp.refusals() == []  # only two observations
+    exp.observe_auction(0, np.array([0, 1]), 1)
+    assert exp.refusals() == [(0, 0)]
+    assert exp.behaviour_[0, 0] == B2_REFUSED
+    assert not exp.willing_[0, 0] and exp.willing_[1, 0]
+
+
+def test_coverage_guard_keeps_k_willing_robots_and_drops_least_experienced_first():
+    spec = ExperienceSpec(delta_u=1.5, n_min=1, coverage_k=2)  # everyone is due at once
+    exp = ExperienceModel(np.ones((4, 1), dtype=bool), spec)
+    exp.observe_auction(0, np.array([0, 1, 2, 3]), 3)
+    exp.observe_auction(0, np.array([0, 1, 2]), 2)
+    exp.observe_auction(0, np.array([0, 1]), 1)
+    refused = exp.refusals()
+    assert len(refused) == 2
+    assert exp.willing_[:, 0].sum() == 2
+    assert {j for j, _ in refused} == {0, 1}  # R0 and R1 have the lowest TEM

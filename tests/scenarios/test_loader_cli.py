@@ -1,0 +1,108 @@
+"""Scenario validation and the CLI's error contract: one line, exit code 2, no traceback."""
+
+from __future__ import annotations
+
+import pytest
+
+from scenarios.cli import main
+from scenarios.loader import ScenarioError, bundled_names, load_scenario
+
+PAPER = load_scenario("paper").source
+
+
+def variant(tmp_path, old: str, new: str, name: str = "bad.toml"):
+    text = open(PAPER).read()
+    assert old in text, old
+    path = tmp_path / name
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+def run_cli(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+BAD = [
+    ("p_high = 0.35", "p_hihg = 0.35", "stream.p_hihg: unknown key (did you mean 'p_high'?)"),
+    ("p_high = 0.35", "p_high = 1.35", "stream.p_high: probability 1.35 outside [0, 1]"),
+    ("p_high = 0.35", "p_high = -0.1", "stream.p_high: probability -0.1 outside [0, 1]"),
+    ("n_sets = 45", 'n_sets = "45"', "stream.n_sets: must be a number, got string '45'"),
+    ("n_sets = 45", "n_sets = -3", "stream.n_sets: must be at least 1"),
+    ("alpha = 0.1", "alpha = nan", "learning.alpha: must be finite"),
+    (
+        'capabilities = ["T4", "T8"]',
+        "capabilities = []",
+        "robots[3].capabilities: needs 1 to 8 entries",
+    ),
+    ('name = "R4"', 'name = "R3"', "robots[3].name: duplicate robot name 'R3'"),
+    (
+        "cost = { T4 = 3, T8 = 9 }",
+        "cost = { T4 = 3 }",
+        "robots[3].cost: missing cost for capability 'T8'",
+    ),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "message"), BAD)
+def test_bad_scenarios_one_line_exit_2(tmp_path, capsys, old, new, message):
+    path = variant(tmp_path, old, new)
+    code, out, err = run_cli(capsys, "validate", str(path))
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"mrta: error: {path}: ")
+    assert message in err
+
+
+def test_type_no_robot_can_do(tmp_path):
+    path = variant(tmp_path, '"T7", "T8"]\nexec_time_s', '"T7", "T8", "T9"]\nexec_time_s')
+    text = path.read_text().replace("exec_time_s = [30.0,", "exec_time_s = [30.0, 30.0,", 1)
+    path.write_text(text)
+    with pytest.raises(ScenarioError, match="'T9' cannot be done by any robot"):
+        load_scenario(path)
+
+
+def test_unknown_capability_did_you_mean(tmp_path):
+    path = variant(tmp_path, 'capabilities = ["T4", "T8"]', 'capabilities = ["T4", "t8"]')
+    with pytest.raises(
+        ScenarioError,
+        match=r"robots\[3\].capabilities: unknown task type 't8' \(did you mean 'T8'\?\)",
+    ):
+        load_scenario(path)
+
+
+def test_syntax_error(tmp_path, capsys):
+    path = tmp_path / "broken.toml"
+    path.write_text("[scenario\nname = 1\n")
+    code, _, err = run_cli(capsys, "validate", str(path))
+    assert code == 2 and "TOML syntax error" in err and err.count("\n") == 1
+
+
+def test_missing_file(capsys, tmp_path):
+    code, _, err = run_cli(capsys, "validate", str(tmp_path / "nope.toml"))
+    assert code == 2 and "nope.toml: file not found" in err
+
+
+def test_unknown_bundled_name(capsys):
+    code, _, err = run_cli(capsys, "reproduce", "--scenario", "papr")
+    assert code == 2 and "did you mean 'paper'?" in err
+
+
+def test_bad_arguments_exit_2(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["reproduce", "--seeds", "-4"])
+    assert info.value.code == 2
+    assert "mrta: error:" in capsys.readouterr().err
+
+
+def test_distance_cost_needs_spatial_scenario(capsys):
+    code, _, err = run_cli(capsys, "run", "paper", "--cost", "distance")
+    assert code == 2 and "needs a spatial scenario" in err
+
+
+@pytest.mark.parametrize("name", bundled_names())
+def test_every_bundled_scenario_validates(capsys, name):
+    code, out, _ = run_cli(capsys, "validate", name)
+    assert code == 0 and ": ok: " in out

@@ -1,0 +1,84 @@
+"""mrta reproduce end to end (small), its files, and figures drawn from metrics.json."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from scenarios.cli import main
+from scenarios.figures import fig_completion, fig_robot_trace
+from scenarios.protocol import RunSpec, run_many
+
+
+@pytest.fixture(scope="module")
+def reproduced(tmp_path_factory):
+    out = tmp_path_factory.mktemp("paper")
+    code = main(["reproduce", "--seeds", "3", "--out", str(out), "--workers", "2", "--no-progress"])
+    assert code == 0
+    return out, json.loads((out / "metrics.json").read_text())
+
+
+def test_writes_every_file(reproduced):
+    out, _ = reproduced
+    for name in ("metrics.json", "fig1_completion.png", "fig2_r5.png", "table2.md", "tradeoff.png"):
+        assert (out / name).stat().st_size > 1000 or name == "table2.md"
+    table = (out / "table2.md").read_text()
+    assert "| R5 |" in table and "Paper Table 2" in table and "550" in table
+
+
+def test_metrics_schema_and_exact_spaces(reproduced, paper):
+    _, m = reproduced
+    assert m["scenario"] == "paper" and m["cost_model"] == "abstract" and m["seeds"] == [0, 1, 2]
+    assert set(m["allocators"]) == {"market", "ql", "expt"}
+    for agg in m["allocators"].values():
+        comp = agg["completion"]
+        assert set(comp["overall"]) == {"low", "high", "all"}
+        assert set(comp["by_type"]) == set(paper.task_types)
+        assert len(comp["per_seed"]["overall"]["all"]) == 3
+        assert comp["overall"]["all"] == pytest.approx(np.mean(comp["per_seed"]["overall"]["all"]))
+        assert comp["ci95"]["overall"]["all"] > 0
+        assert agg["tasks"]["allocated"] <= agg["tasks"]["announced"]
+    ql = m["allocators"]["ql"]["learning_space"]
+    assert ql["initial"] == 3498 and ql["final"] == 3498
+    assert ql["per_robot_initial"]["R5"] == 512 and ql["per_robot_initial"]["R2"] == 1250
+    assert 23.0 < ql["joint_log10"] < 23.2
+    expt = m["allocators"]["expt"]
+    assert expt["learning_space"]["final"] < 3498
+    assert set(expt["experienced_tasks"]) == {r.name for r in paper.robots}
+    assert len(m["tradeoff"]["points"]) >= 2
+
+
+def test_fig1_bars_are_metrics(reproduced):
+    _, m = reproduced
+    fig = fig_completion(m)
+    bars = [p for ax in fig.axes for p in ax.patches if p.get_gid()]
+    assert len(bars) == 3 * 8 * 2
+    for bar in bars:
+        name, t, prio = bar.get_gid().split("|")
+        assert bar.get_height() == pytest.approx(
+            m["allocators"][name]["completion"]["by_type"][t][prio]
+        )
+
+
+def test_fig2_lines_are_the_trace():
+    run = run_many([RunSpec("paper", "expt", seed=0, trace_robot="R5")], workers=1, progress=False)[
+        0
+    ]
+    trace = run["trace"]
+    fig = fig_robot_trace(trace)
+    lines = {ln.get_gid(): ln for ax in fig.axes for ln in ax.get_lines() if ln.get_gid()}
+    assert set(trace["capabilities"]) == {"T2", "T5", "T7", "T8"}
+    tem = np.array(trace["tem"])
+    for t in trace["capabilities"]:
+        i = trace["task_types"].index(t)
+        assert np.allclose(lines[f"tem|{t}"].get_ydata(), tem[:, i])
+    assert np.array_equal(lines["space"].get_ydata(), trace["space"])
+    assert trace["space"][0] == 512
+    assert set(trace["space"]) <= {512, 162, 32, 2}  # 2 * n**4 for n = 4, 3, 2, 1
+
+
+def test_parallel_equals_serial():
+    specs = [RunSpec("paper", a, seed=s) for a in ("ql", "expt") for s in (0, 1)]
+    assert run_many(specs, workers=2, progress=False) == run_many(specs, workers=1, progress=False)

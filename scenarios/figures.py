@@ -87,7 +87,8 @@ def fig_completion(metrics: dict, path: Path | None = None):
             ax.grid(axis="y", alpha=0.3)
         for ax in axes[len(panels) :]:
             ax.set_visible(False)
-        axes[0].legend(loc="lower left", ncols=len(allocs), frameon=False)
+        handles, labels = axes[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside lower center", ncols=len(allocs), frameon=False)
         scen = metrics.get("scenario", "")
         n = len(metrics.get("seeds", []))
         fig.suptitle(f"Task completion ratio on the test sets ({scen}, {n} seeds, 95% CI)")
@@ -185,6 +186,7 @@ def fig_tradeoff(points: list[dict], references: dict, path: Path | None = None)
                     label=f"{ALLOCATOR_LABELS.get(name, name)} (no learning)",
                 )
         ax.set_xscale("log")
+        _log_ticks(ax, xs + [r["space"] for r in references.values() if r.get("space")])
         ax.set_xlabel("final learning space, sum over robots of |S| x |A| (log)")
         ax.set_ylabel("completion ratio, all tasks")
         ax.set_title("(a) Learning space against completion")
@@ -211,6 +213,7 @@ def fig_tradeoff(points: list[dict], references: dict, path: Path | None = None)
                     label=f"QL-MRTA, {prio} priority",
                 )
         ax2.set_xscale("log")
+        _log_ticks(ax2, du)
         ax2.set_xlabel("refusal threshold δu (log)")
         ax2.set_ylabel("completion ratio")
         ax2.set_title("(b) Completion by priority against δu")
@@ -218,3 +221,17 @@ def fig_tradeoff(points: list[dict], references: dict, path: Path | None = None)
         ax2.grid(alpha=0.3)
     _save(fig, path)
     return fig
+
+
+def _log_ticks(ax, values) -> None:
+    """Plain-number ticks on a log axis at 1-2-5 steps spanning the plotted values."""
+    vals = [float(v) for v in values if v]
+    lo, hi = min(vals), max(vals)
+    ticks = [
+        m * 10.0**e
+        for e in range(math.floor(math.log10(lo)) - 1, math.ceil(math.log10(hi)) + 1)
+        for m in (1, 2, 5)
+        if lo / 1.15 <= m * 10.0**e <= hi * 1.15
+    ]
+    ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+    ax.minorticks_off()

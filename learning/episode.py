@@ -70,25 +70,42 @@ def run_protocol(
     phases: tuple[tuple[str, list[int]], ...] | None = None,
     trace: bool = True,
     on_round: Callable[[], None] | None = None,
+    on_set_end: Callable[[int, int, RunRecord], None] | None = None,
+    resume: tuple[int, int, RunRecord] | None = None,
 ) -> RunRecord:
-    """Play the stream's sets through ``world`` with ``allocator`` and record what happened."""
+    """Play the stream's sets through ``world`` with ``allocator`` and record what happened.
+
+    Args:
+        on_set_end: called as ``on_set_end(phase_index, next_set_position, record)`` after every
+            set (checkpoints hook in here).
+        resume: ``(phase_index, set_position, record)`` to continue a run whose allocator and
+            world state were restored from a checkpoint written at that position.
+    """
     if phases is None:
         learn_sets, test_sets = protocol_sets(scenario)
         phases = (("learn", learn_sets), ("test", test_sets))
-    world.reset(rng)
-    record = RunRecord(
-        PhaseRecord(),
-        PhaseRecord(),
-        allocator.learning_space().copy(),
-        allocator.learning_space().copy(),
-        allocator.willing().copy(),
-    )
+    if resume is None:
+        world.reset(rng)
+        record = RunRecord(
+            PhaseRecord(),
+            PhaseRecord(),
+            allocator.learning_space().copy(),
+            allocator.learning_space().copy(),
+            allocator.willing().copy(),
+        )
+        start_phase, start_pos = 0, 0
+    else:
+        start_phase, start_pos, record = resume
     interval = scenario.stream.announce_interval_s
     capable = scenario.capability_matrix()
-    rounds = 0
-    for phase_name, set_indices in phases:
+    rounds = len(record.trace_time)
+    for pi, (phase_name, set_indices) in enumerate(phases):
+        if pi < start_phase:
+            continue
         phase = record.learn if phase_name == "learn" else record.test
-        for s in set_indices:
+        for pos, s in enumerate(set_indices):
+            if pi == start_phase and pos < start_pos:
+                continue
             allocator.begin_set(s, learning=phase_name == "learn")
             for batch in stream.batches(s):
                 state = world.snapshot()
@@ -111,6 +128,8 @@ def run_protocol(
                     on_round()
             phase.completions.extend(world.drain())
             allocator.end_set()
+            if on_set_end is not None:
+                on_set_end(pi, pos + 1, record)
         _check_conservation(phase_name, phase)
     record.space_final = allocator.learning_space().copy()
     record.willing_final = allocator.willing().copy()
@@ -151,3 +170,86 @@ def _check_conservation(name: str, phase: PhaseRecord) -> None:
     done = sorted(c.task_id for c in phase.completions)
     if done != sorted(ids[assigned >= 0].tolist()):
         raise InvariantError(f"{name} phase: allocated tasks and completed or failed tasks differ")
+
+
+COMPLETION_COLUMNS = (
+    "task_id",
+    "robot",
+    "t_alloc_s",
+    "t_done_s",
+    "bid",
+    "distance_m",
+    "ok",
+    "reason",
+)
+
+
+def record_arrays(record: RunRecord) -> dict[str, np.ndarray]:
+    """A run record as flat arrays (for checkpoints): ``rec/<phase>/<column>`` and traces."""
+    out: dict[str, np.ndarray] = {}
+    for name in ("learn", "test"):
+        phase: PhaseRecord = getattr(record, name)
+        lengths = np.array([a.size for a in phase.task_ids], dtype=np.int64)
+        ids, assigned = phase.arrays()
+        out[f"rec/{name}/lengths"] = lengths
+        out[f"rec/{name}/ids"] = ids
+        out[f"rec/{name}/assigned"] = assigned
+        out[f"rec/{name}/bids"] = np.concatenate(phase.bids) if phase.bids else np.zeros(0)
+        for col in COMPLETION_COLUMNS:
+            values = [getattr(c, col) for c in phase.completions]
+            out[f"rec/{name}/c_{col}"] = np.array(values, dtype=str if col == "reason" else float)
+    out["rec/space_initial"] = record.space_initial
+    out["rec/space_final"] = record.space_final
+    out["rec/willing_final"] = record.willing_final
+    out["rec/trace_time"] = np.array(record.trace_time, dtype=np.int64)
+    m = record.space_initial.size
+    n = record.willing_final.shape[1]
+    out["rec/trace_space"] = np.array(record.trace_space, dtype=np.int64).reshape(-1, m)
+    out["rec/trace_u"] = np.array(record.trace_u, dtype=float).reshape(-1, m, n)
+    out["rec/trace_behaviour"] = np.array(record.trace_behaviour, dtype=np.int8).reshape(-1, m, n)
+    return out
+
+
+def record_from_arrays(arrays: dict[str, np.ndarray]) -> RunRecord:
+    """Inverse of :func:`record_arrays`."""
+    phases = []
+    for name in ("learn", "test"):
+        cut = np.cumsum(arrays[f"rec/{name}/lengths"])[:-1]
+        cols = {c: arrays[f"rec/{name}/c_{c}"] for c in COMPLETION_COLUMNS}
+        completions = [
+            Completion(
+                int(cols["task_id"][k]),
+                int(cols["robot"][k]),
+                float(cols["t_alloc_s"][k]),
+                float(cols["t_done_s"][k]),
+                float(cols["bid"][k]),
+                float(cols["distance_m"][k]),
+                bool(cols["ok"][k]),
+                str(cols["reason"][k]),
+            )
+            for k in range(cols["task_id"].size)
+        ]
+        n_rounds = arrays[f"rec/{name}/lengths"].size
+
+        def split(a, cut=cut, n=n_rounds):
+            return np.split(a, cut) if n else []
+
+        phases.append(
+            PhaseRecord(
+                split(arrays[f"rec/{name}/ids"]),
+                split(arrays[f"rec/{name}/assigned"]),
+                split(arrays[f"rec/{name}/bids"]),
+                completions,
+            )
+        )
+    return RunRecord(
+        phases[0],
+        phases[1],
+        arrays["rec/space_initial"],
+        arrays["rec/space_final"],
+        arrays["rec/willing_final"],
+        arrays["rec/trace_time"].tolist(),
+        list(arrays["rec/trace_space"]),
+        list(arrays["rec/trace_u"]),
+        list(arrays["rec/trace_behaviour"]),
+    )

@@ -109,8 +109,26 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=_non_negative_int, default=0)
     s.add_argument("--out", type=Path, required=True, help="FILE.json or FILE.csv")
 
-    run = sub.add_parser("run", help="one allocator, one cost model, one seed: metrics.json")
-    run.add_argument("scenario")
+    run = sub.add_parser(
+        "run",
+        help="one allocator, one cost model, one seed: metrics.json and run_manifest.json",
+        description="Play the paper protocol once. Writes metrics.json and run_manifest.json to "
+        "--out; with --checkpoint also checkpoint.npz after every task set, which --resume "
+        "continues from (the result equals an uninterrupted run). --replay repeats the run a "
+        "manifest describes and must give an identical metrics.json.",
+    )
+    run.add_argument("scenario", nargs="?", help="scenario name or TOML path (not with --replay)")
+    run.add_argument(
+        "--replay",
+        type=Path,
+        default=None,
+        metavar="MANIFEST",
+        help="repeat the run recorded in a run_manifest.json",
+    )
+    run.add_argument(
+        "--checkpoint", action="store_true", help="write OUT/checkpoint.npz after every set"
+    )
+    run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
     run.add_argument("--allocator", choices=sorted(ALLOCATORS), default="expt")
     run.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
     run.add_argument("--seed", type=_non_negative_int, default=0)
@@ -180,28 +198,44 @@ def cmd_stream(args) -> int:
 
 
 def cmd_run(args) -> int:
+    from scenarios.manifest import build_manifest, read_manifest, write_manifest
     from scenarios.metrics import aggregate
-    from scenarios.protocol import RunSpec, execute, write_json_atomic
+    from scenarios.protocol import RunSpec, UserError, _load, execute, write_json_atomic
 
-    spec = RunSpec(
-        str(args.scenario),
-        args.allocator,
-        args.cost,
-        args.seed,
-        stream_file=str(args.stream) if args.stream else "",
-    )
-    summary = execute(spec)
     out = args.out or Path("renders") / "run"
+    if args.replay is not None:
+        if args.scenario:
+            raise UserError("give either a scenario or --replay MANIFEST, not both")
+        out = args.out or args.replay.parent / "replay"
+        _, specs = read_manifest(args.replay, scratch=out)
+        spec = specs[0]
+    elif not args.scenario:
+        raise UserError("run needs a SCENARIO (or --replay MANIFEST)")
+    else:
+        spec = RunSpec(
+            str(args.scenario),
+            args.allocator,
+            args.cost,
+            args.seed,
+            stream_file=str(args.stream) if args.stream else "",
+        )
+    checkpoint = out / "checkpoint.npz" if (args.checkpoint or args.resume) else None
+    if args.resume and not checkpoint.is_file():
+        raise UserError(f"{checkpoint}: no checkpoint to resume from (run with --checkpoint first)")
+    scenario = _load(spec.scenario)
+    out.mkdir(parents=True, exist_ok=True)
+    write_manifest(out, build_manifest(scenario, [spec]))
+    summary = execute(spec, checkpoint=checkpoint, resume=args.resume)
     metrics = {
-        "scenario": summary["spec"]["scenario"],
-        "cost_model": args.cost,
-        "seeds": [args.seed],
-        "allocators": {args.allocator: aggregate([summary])},
+        "scenario": scenario.name,
+        "cost_model": spec.cost,
+        "seeds": [spec.seed],
+        "allocators": {spec.allocator: aggregate([summary])},
     }
     write_json_atomic(out / "metrics.json", metrics)
     comp = summary["completion"]["overall"]
     print(
-        f"{args.allocator} on {args.scenario} ({args.cost} cost, seed {args.seed}): completion "
+        f"{spec.allocator} on {scenario.name} ({spec.cost} cost, seed {spec.seed}): completion "
         f"low {comp['low']:.3f} high {comp['high']:.3f} all {comp['all']:.3f}; "
         f"wrote {out}/metrics.json"
     )
@@ -218,6 +252,7 @@ COMMANDS = {
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mrta`` console script."""
+    from learning.checkpoint import CheckpointError
     from learning.episode import InvariantError
     from scenarios.loader import ScenarioError
     from scenarios.protocol import UserError
@@ -231,6 +266,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     except FileNotFoundError as exc:
         print(f"mrta: error: {exc.filename or exc}: file or folder not found", file=sys.stderr)
+        return EXIT_USAGE
+    except CheckpointError as exc:
+        print(f"mrta: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except InvariantError as exc:
         print(f"mrta: invariant violated: {exc}", file=sys.stderr)

@@ -22,7 +22,14 @@ import numpy as np
 
 from allocation.costs import make_cost_model
 from learning import ALLOCATORS
-from learning.episode import run_protocol
+from learning.checkpoint import (
+    CheckpointError,
+    allocator_arrays,
+    load_checkpoint,
+    restore_allocator,
+    save_checkpoint,
+)
+from learning.episode import record_arrays, record_from_arrays, run_protocol
 from scenarios.loader import load_scenario
 from scenarios.metrics import summarize_run
 from sim import make_world
@@ -108,13 +115,49 @@ def check_stream(scenario: Scenario, stream: TaskStream, where: str) -> None:
         raise UserError(f"{where}: a spatial scenario needs task sites (x, y) for every task")
 
 
-def execute(spec: RunSpec, world_hook: Callable[[Any], None] | None = None) -> dict:
-    """Run one spec and return its JSON-able summary (plus the fig. 2 trace when asked)."""
+def execute(
+    spec: RunSpec,
+    world_hook: Callable[[Any], None] | None = None,
+    checkpoint: Path | None = None,
+    resume: bool = False,
+) -> dict:
+    """Run one spec and return its JSON-able summary (plus the fig. 2 trace when asked).
+
+    Args:
+        world_hook: called with the world before the run (e.g. to attach a recorder).
+        checkpoint: write learned state here after every task set (atomically).
+        resume: continue from ``checkpoint`` instead of starting afresh; the result equals
+            that of an uninterrupted run.
+    """
     scenario, stream, world, cost, allocator, rng = build_run(spec)
     if world_hook is not None:
         world_hook(world)
+    resume_at = _resume(spec, checkpoint, allocator, world, rng) if resume else None
+    on_set_end = None
+    if checkpoint is not None:
+
+        def on_set_end(phase: int, set_pos: int, rec) -> None:
+            arrays, meta = allocator_arrays(allocator)
+            arrays.update(record_arrays(rec))
+            arrays.update({f"world/{k}": v for k, v in world.state_arrays().items()})
+            meta.update(
+                spec=_spec_json(spec),
+                phase=phase,
+                set_pos=set_pos,
+                world_rng_state=rng.bit_generator.state,
+            )
+            save_checkpoint(checkpoint, arrays, meta)
+
     record = run_protocol(
-        scenario, stream, allocator, world, cost, rng, trace=bool(spec.trace_robot)
+        scenario,
+        stream,
+        allocator,
+        world,
+        cost,
+        rng,
+        trace=bool(spec.trace_robot),
+        on_set_end=on_set_end,
+        resume=resume_at,
     )
     out = summarize_run(scenario, stream, record, allocator.learns)
     out["spec"] = dataclasses.asdict(spec)
@@ -133,6 +176,24 @@ def execute(spec: RunSpec, world_hook: Callable[[Any], None] | None = None) -> d
             "task_types": list(scenario.task_types),
         }
     return out
+
+
+def _spec_json(spec: RunSpec) -> dict:
+    return json.loads(json.dumps(dataclasses.asdict(spec)))
+
+
+def _resume(spec: RunSpec, checkpoint: Path | None, allocator, world, rng):
+    """Restore allocator, world and record from a checkpoint; return run_protocol's resume."""
+    if checkpoint is None:
+        raise UserError("--resume needs a checkpoint file")
+    arrays, meta = load_checkpoint(checkpoint)
+    if meta.get("spec") != _spec_json(spec):
+        raise CheckpointError(f"{checkpoint}: written by another run (spec {meta.get('spec')})")
+    restore_allocator(allocator, arrays, meta)
+    world.reset(rng)
+    world.restore_arrays({k[6:]: v for k, v in arrays.items() if k.startswith("world/")})
+    rng.bit_generator.state = meta["world_rng_state"]
+    return int(meta["phase"]), int(meta["set_pos"]), record_from_arrays(arrays)
 
 
 def run_many(

@@ -7,6 +7,7 @@ from pathlib import Path
 from learning import ALLOCATORS
 from learning.qtable import space_size
 from scenarios.figures import fig_completion, fig_robot_trace, fig_tradeoff
+from scenarios.manifest import build_manifest, write_manifest
 from scenarios.metrics import aggregate
 from scenarios.protocol import RunSpec, _load, check_cost, run_many, write_json_atomic
 from scenarios.reference import PAPER_TABLE2
@@ -60,6 +61,7 @@ def reproduce(
     metrics["tradeoff"] = {"parameter": "experience.delta_u", "points": points}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    write_manifest(out, build_manifest(sc, specs))
     write_json_atomic(out / "metrics.json", metrics)
     fig_completion(metrics, out / "fig1_completion.png")
     trace = next((r["trace"] for r in by_alloc["expt"] if "trace" in r), None)

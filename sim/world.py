@@ -96,6 +96,17 @@ class AbstractWorld:
         self.time_s_ = max(self.time_s_, float(self.busy_until_s_.max(initial=0.0)))
         return self._collect(lambda j: True)
 
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Clock and busy times, for checkpoints taken between sets (no task in progress)."""
+        if self.jobs_:
+            raise RuntimeError("checkpoint requested while tasks are in progress")
+        return {"time_s": np.array(self.time_s_), "busy_until_s": self.busy_until_s_.copy()}
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        self.time_s_ = float(arrays["time_s"])
+        self.busy_until_s_ = arrays["busy_until_s"].astype(float).copy()
+        self.jobs_ = {}
+
     def _collect(self, done) -> list[Completion]:
         out = []
         for j in sorted(self.jobs_):

@@ -1,0 +1,100 @@
+"""Run manifests: everything needed to repeat a run and check that it was repeated.
+
+Every output folder gets ``run_manifest.json``: package and library versions, Python, the
+command line, the scenario (name, file, SHA-256 and its full TOML text) and the run specs
+(allocator, cost model, seed, overrides). ``mrta run --replay MANIFEST`` re-runs the spec on
+the scenario text stored in the manifest and must give an identical ``metrics.json``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import platform
+import sys
+from dataclasses import asdict, fields
+from importlib import metadata
+from pathlib import Path
+
+from scenarios.protocol import RunSpec, UserError, write_json_atomic
+from sim.scenario import Scenario
+
+MANIFEST_FORMAT = "expt-mrta-manifest/1"
+LIBRARIES = ("numpy", "scipy", "pymunk", "gymnasium", "matplotlib", "pillow", "tqdm")
+
+
+def _version(dist: str) -> str:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def build_manifest(scenario: Scenario, specs: list[RunSpec], argv: list[str] | None = None) -> dict:
+    text = (
+        Path(scenario.source).read_text()
+        if scenario.source and Path(scenario.source).is_file()
+        else ""
+    )
+    return {
+        "format": MANIFEST_FORMAT,
+        "package": {"name": "expt-mrta", "version": _version("expt-mrta")},
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "libraries": {lib: _version(lib) for lib in LIBRARIES},
+        "command": ["mrta", *(argv if argv is not None else sys.argv[1:])],
+        "scenario": {
+            "name": scenario.name,
+            "source": scenario.source,
+            "sha256": scenario.source_sha256,
+            "toml": text,
+        },
+        "runs": [asdict(s) for s in specs],
+    }
+
+
+def write_manifest(out: Path, manifest: dict) -> Path:
+    path = Path(out) / "run_manifest.json"
+    write_json_atomic(path, manifest)
+    return path
+
+
+def read_manifest(path: Path, scratch: Path) -> tuple[dict, list[RunSpec]]:
+    """Load a manifest; its scenario is re-materialised from the stored TOML text in ``scratch``."""
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise UserError(f"{path}: manifest not found") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise UserError(f"{path}: not a readable manifest ({type(exc).__name__})") from None
+    if not isinstance(doc, dict) or doc.get("format") != MANIFEST_FORMAT:
+        raise UserError(f"{path}: not an expt-mrta run manifest")
+    scen = doc.get("scenario", {})
+    text = scen.get("toml", "")
+    if not text or hashlib.sha256(text.encode()).hexdigest() != scen.get("sha256"):
+        raise UserError(
+            f"{path}: scenario.toml: stored scenario text missing or does not match its sha256"
+        )
+    scratch.mkdir(parents=True, exist_ok=True)
+    stored = scratch / f"{scen.get('name', 'scenario')}.replay.toml"
+    if not stored.is_file() or stored.read_text() != text:
+        stored.write_text(text)
+    names = {f.name for f in fields(RunSpec)}
+    specs = []
+    for k, run in enumerate(doc.get("runs", [])):
+        unknown = set(run) - names
+        if unknown:
+            raise UserError(f"{path}: runs[{k}]: unknown keys {sorted(unknown)}")
+        run = {
+            **run,
+            "scenario": str(stored),
+            "overrides": tuple(tuple(o) for o in run["overrides"]),
+        }
+        specs.append(RunSpec(**run))
+    if not specs:
+        raise UserError(f"{path}: runs: no run recorded")
+    return doc, specs
+
+
+__all__ = ["build_manifest", "read_manifest", "write_manifest"]

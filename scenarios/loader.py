@@ -153,9 +153,12 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
         v.check(0.0 <= val <= 1.0, f"learning.{key}", f"{val} outside [0, 1]")
     v.check(lp.history >= 1, "learning.history", "must be at least 1")
     widest = max(len(r.capabilities) for r in robots)
-    if widest**lp.history > MAX_HISTORY_SPACE:
+    if lp.history * math.log(widest) > math.log(MAX_HISTORY_SPACE):  # no huge int powers
+        digits = lp.history * math.log10(widest) + math.log10(2)
         v.fail(
-            "learning.history", f"a robot's Q-table would have {2 * widest**lp.history:,} entries"
+            "learning.history",
+            f"a robot's Q-table would have about 10^{digits:.0f} entries "
+            f"(limit {MAX_HISTORY_SPACE:,})",
         )
     for key in ("reward_high", "reward_low", "penalty_lost_high"):
         v.check(getattr(lp, key) >= 0, f"learning.{key}", "must be >= 0")

@@ -72,6 +72,7 @@ def run_protocol(
     on_round: Callable[[], None] | None = None,
     on_set_end: Callable[[int, int, RunRecord], None] | None = None,
     resume: tuple[int, int, RunRecord] | None = None,
+    recorder=None,
 ) -> RunRecord:
     """Play the stream's sets through ``world`` with ``allocator`` and record what happened.
 
@@ -80,6 +81,8 @@ def run_protocol(
             set (checkpoints hook in here).
         resume: ``(phase_index, set_position, record)`` to continue a run whose allocator and
             world state were restored from a checkpoint written at that position.
+        recorder: a ``sim.recording.TrajectoryRecorder`` told of announcements, allocations
+            and completions (the world feeds it poses).
     """
     if phases is None:
         learn_sets, test_sets = protocol_sets(scenario)
@@ -120,13 +123,20 @@ def run_protocol(
                 phase.task_ids.append(batch.ids)
                 phase.assigned.append(assignment)
                 phase.bids.append(won_bid)
-                phase.completions.extend(world.advance(interval))
+                done = world.advance(interval)
+                if recorder is not None:
+                    _record_round(recorder, state.time_s, batch, assignment, done)
+                phase.completions.extend(done)
                 rounds += 1
                 if trace:
                     _trace(record, allocator, rounds)
                 if on_round is not None:
                     on_round()
-            phase.completions.extend(world.drain())
+            done = world.drain()
+            if recorder is not None:
+                for c in done:
+                    recorder.done(c.task_id, c.t_done_s)
+            phase.completions.extend(done)
             allocator.end_set()
             if on_set_end is not None:
                 on_set_end(pi, pos + 1, record)
@@ -139,6 +149,13 @@ def run_protocol(
     if allocator.learns and not np.array_equal(space, record.space_final):
         raise InvariantError("learning-space sizes differ from 2 * n**h of the robots' task sets")
     return record
+
+
+def _record_round(recorder, t_s: float, batch, assignment, done: list[Completion]) -> None:
+    recorder.announce(t_s, batch.ids, batch.types, batch.high, batch.sites)
+    recorder.allocate(t_s, batch.ids, assignment)
+    for c in done:
+        recorder.done(c.task_id, c.t_done_s)
 
 
 def _trace(record: RunRecord, allocator, rounds: int) -> None:

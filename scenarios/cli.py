@@ -7,134 +7,11 @@ Ctrl-C stops cleanly with exit code 130 and says what was kept.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
 
-EXIT_USAGE = 2
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line, exit 2 (argparse prints usage too; keep it short)
-        self.exit(
-            EXIT_USAGE, f"mrta: error: {message} (see 'mrta {self.prog.split()[-1]} --help')\n"
-        )
-
-
-def _seed_list(text: str) -> list[int]:
-    """'10' -> seeds 0..9; '3,5,8' -> those seeds; '2-6' -> 2..6."""
-    try:
-        if "," in text:
-            seeds = [int(s) for s in text.split(",") if s.strip()]
-        elif "-" in text.strip("-"):
-            a, b = text.split("-", 1)
-            seeds = list(range(int(a), int(b) + 1))
-        else:
-            n = int(text)
-            if n < 1:
-                raise argparse.ArgumentTypeError(f"need at least one seed, got {n}")
-            seeds = list(range(n))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a seed count or list: {text!r}") from None
-    if not seeds or min(seeds) < 0:
-        raise argparse.ArgumentTypeError(f"seeds must be non-negative integers: {text!r}")
-    return seeds
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def _non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
-
-
-def build_parser() -> argparse.ArgumentParser:
-    from learning import ALLOCATORS
-
-    p = _Parser(
-        prog="mrta",
-        description="Multi-robot task allocation: market auction, QL-MRTA and ExpT-MRTA "
-        "(Ezercan Kayır) in an abstract cost world or a pymunk world.",
-        epilog="Scenarios are bundled names (mrta validate --list) or TOML paths.",
-    )
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
-
-    v = sub.add_parser("validate", help="check scenario files and print a short description")
-    v.add_argument("files", nargs="*", help="scenario names or TOML paths")
-    v.add_argument("--list", action="store_true", help="list the bundled scenarios")
-
-    r = sub.add_parser(
-        "reproduce",
-        help="the paper protocol for all allocators over seeds: metrics.json, figures, Table 2",
-        description="Run market, QL-MRTA and ExpT-MRTA on the same seeded task streams "
-        "(learning sets with exploration, then test sets greedily), plus a delta_u sweep "
-        "for the trade-off plot, and write metrics.json, fig1_completion.png, fig2_r5.png, "
-        "table2.md and tradeoff.png to --out.",
-    )
-    r.add_argument(
-        "--scenario", default=None, help="default: paper (paper_spatial for --cost distance/time)"
-    )
-    r.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
-    r.add_argument(
-        "--seeds",
-        type=_seed_list,
-        default=_seed_list("10"),
-        help="a count N (seeds 0..N-1), a list '1,4,9' or a range '0-19' (default 10)",
-    )
-    r.add_argument(
-        "--out", type=Path, default=None, help="output folder (default renders/<scenario>/)"
-    )
-    r.add_argument(
-        "--workers", type=_positive_int, default=None, help="processes (default: all cores)"
-    )
-    r.add_argument("--robot", default="R5", help="robot whose experience fig2 shows (default R5)")
-    r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-
-    s = sub.add_parser("stream", help="write a seeded task stream to JSON or CSV for replay")
-    s.add_argument("scenario")
-    s.add_argument("--seed", type=_non_negative_int, default=0)
-    s.add_argument("--out", type=Path, required=True, help="FILE.json or FILE.csv")
-
-    run = sub.add_parser(
-        "run",
-        help="one allocator, one cost model, one seed: metrics.json and run_manifest.json",
-        description="Play the paper protocol once. Writes metrics.json and run_manifest.json to "
-        "--out; with --checkpoint also checkpoint.npz after every task set, which --resume "
-        "continues from (the result equals an uninterrupted run). --replay repeats the run a "
-        "manifest describes and must give an identical metrics.json.",
-    )
-    run.add_argument("scenario", nargs="?", help="scenario name or TOML path (not with --replay)")
-    run.add_argument(
-        "--replay",
-        type=Path,
-        default=None,
-        metavar="MANIFEST",
-        help="repeat the run recorded in a run_manifest.json",
-    )
-    run.add_argument(
-        "--checkpoint", action="store_true", help="write OUT/checkpoint.npz after every set"
-    )
-    run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
-    run.add_argument("--allocator", choices=sorted(ALLOCATORS), default="expt")
-    run.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
-    run.add_argument("--seed", type=_non_negative_int, default=0)
-    run.add_argument("--stream", type=Path, default=None, help="replay a stream file (mrta stream)")
-    run.add_argument("--out", type=Path, default=None, help="output folder (default renders/run/)")
-    return p
+from scenarios.cli_parser import EXIT_USAGE, build_parser
 
 
 def cmd_validate(args) -> int:
@@ -242,11 +119,96 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_compare(args) -> int:
+    from scenarios.compare import compare, markdown_table
+
+    out = args.out or Path("renders") / "compare" / Path(args.scenario).stem
+    doc = compare(
+        args.scenario,
+        args.costs,
+        args.allocators,
+        args.seeds,
+        out,
+        workers=args.workers,
+        progress=not args.no_progress,
+    )
+    print(f"{doc['scenario']}: mean ± 95% CI over {len(args.seeds)} seeds (test sets)")
+    print(markdown_table(doc))
+    print(f"wrote {out}/compare.json, compare.md, compare.png")
+    return 0
+
+
+def cmd_render(args) -> int:
+    from scenarios.protocol import RunSpec, UserError, _load, execute
+    from sim.recording import TrajectoryRecorder
+    from sim.render import render_gif, render_mp4
+
+    sc = _load(args.scenario)
+    if sc.spatial is None:
+        raise UserError(
+            f"{args.scenario}: render needs a spatial scenario (one with a [spatial] table)"
+        )
+    sets = min(args.sets, sc.stream.n_sets)
+    overrides = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
+    for path in (args.gif, args.mp4, args.trajectory):
+        if path is not None and not path.parent.is_dir():
+            raise UserError(f"{path.parent}: output folder does not exist")
+    sp = sc.spatial
+    recorder = TrajectoryRecorder(
+        (sp.width_m, sp.height_m),
+        sp.obstacles,
+        sc.task_types,
+        [r.name for r in sc.robots],
+        every_s=0.1,
+    )
+    spec = RunSpec(args.scenario, args.allocator, args.cost, args.seed, overrides)
+    execute(spec, recorder=recorder)
+    traj = recorder.finish()
+    end = float(traj.times_s[-1])
+    t_to = args.t_to if args.t_to is not None else min(end, args.t_from + 180.0)
+    if not 0 <= args.t_from < t_to <= end:
+        raise UserError(
+            f"--from {args.t_from} / --to {t_to}: need 0 <= from < to <= {end:.1f} s (end of run)"
+        )
+    if args.trajectory is not None:
+        traj.save(args.trajectory)
+    kw = {
+        "frames": args.frames,
+        "fps": args.fps,
+        "size": args.size,
+        "t_from": args.t_from,
+        "t_to": t_to,
+        "trail_s": args.trail,
+    }
+    try:
+        render_gif(traj, args.gif, **kw)
+        if args.mp4 is not None:
+            render_mp4(traj, args.mp4, **kw)
+    except (ValueError, RuntimeError) as exc:
+        raise UserError(str(exc)) from None
+    print(f"wrote {args.gif} ({args.frames} frames, {args.t_from:.0f}-{t_to:.0f} s of {end:.0f} s)")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    import json
+
+    from scenarios.bench import run_bench
+
+    result = run_bench(args.only, progress=not args.json)
+    if args.json:
+        print(json.dumps(result))
+    return 0
+
+
 COMMANDS = {
     "validate": cmd_validate,
     "reproduce": cmd_reproduce,
     "stream": cmd_stream,
     "run": cmd_run,
+    "compare": cmd_compare,
+    "render": cmd_render,
+    "bench": cmd_bench,
 }
 
 

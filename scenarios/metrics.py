@@ -68,6 +68,47 @@ def summarize_run(scenario: Scenario, stream: TaskStream, record: RunRecord, lea
     return out
 
 
+def spatial_metrics(scenario: Scenario, stream: TaskStream, record: RunRecord, cost: str) -> dict:
+    """Test-phase task figures of a spatial run: distance, waiting, finishing, estimate error.
+
+    ``time_to_start_s`` is allocation to arrival (the task's work starts), ``time_to_finish_s``
+    allocation to done; since a task is allocated when it is announced, the waiting time of a
+    high-priority task is its time to start. ``estimate_error`` compares the bid with what
+    really happened: metres driven for the distance cost, seconds to finish for the time cost
+    (NaN for the abstract cost, whose bids are not physical).
+    """
+    comps = [c for c in record.test.completions if c.ok]
+    exec_s = np.asarray(scenario.exec_time_s, dtype=float)
+    if not comps:
+        nan = float("nan")
+        keys = (
+            "distance_m",
+            "time_to_start_s",
+            "time_to_finish_s",
+            "high_wait_s",
+            "estimate_error",
+        )
+        return {**dict.fromkeys(keys, nan), "tasks_failed": len(record.test.completions)}
+    ids = np.array([c.task_id for c in comps])
+    dist = np.array([c.distance_m for c in comps])
+    finish = np.array([c.t_done_s - c.t_alloc_s for c in comps])
+    start = finish - exec_s[stream.types[ids]]
+    bid = np.array([c.bid for c in comps])
+    actual = {"distance": dist, "time": finish}.get(cost)
+    high = stream.high[ids]
+    return {
+        "distance_m": float(dist.sum()),
+        "time_to_start_s": float(start.mean()),
+        "time_to_finish_s": float(finish.mean()),
+        "high_wait_s": float(start[high].mean()) if high.any() else float("nan"),
+        "estimate_error": float(np.mean(actual - bid)) if actual is not None else float("nan"),
+        "estimate_abs_error": float(np.mean(np.abs(actual - bid)))
+        if actual is not None
+        else float("nan"),
+        "tasks_failed": len(record.test.completions) - len(comps),
+    }
+
+
 def ci95(values: list[float]) -> float:
     """Half-width of the two-sided 95% Student-t confidence interval of the mean."""
     arr = np.asarray([v for v in values if not math.isnan(v)], dtype=float)

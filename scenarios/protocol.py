@@ -31,7 +31,7 @@ from learning.checkpoint import (
 )
 from learning.episode import record_arrays, record_from_arrays, run_protocol
 from scenarios.loader import load_scenario
-from scenarios.metrics import summarize_run
+from scenarios.metrics import spatial_metrics, summarize_run
 from sim import make_world
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
@@ -120,6 +120,7 @@ def execute(
     world_hook: Callable[[Any], None] | None = None,
     checkpoint: Path | None = None,
     resume: bool = False,
+    recorder=None,
 ) -> dict:
     """Run one spec and return its JSON-able summary (plus the fig. 2 trace when asked).
 
@@ -128,10 +129,15 @@ def execute(
         checkpoint: write learned state here after every task set (atomically).
         resume: continue from ``checkpoint`` instead of starting afresh; the result equals
             that of an uninterrupted run.
+        recorder: a ``sim.recording.TrajectoryRecorder`` (spatial worlds) to fill.
     """
     scenario, stream, world, cost, allocator, rng = build_run(spec)
     if world_hook is not None:
         world_hook(world)
+    if recorder is not None:
+        world.recorder = recorder
+    if checkpoint is not None and not hasattr(world, "state_arrays"):
+        raise UserError("checkpoints and --resume are supported in the abstract world only")
     resume_at = _resume(spec, checkpoint, allocator, world, rng) if resume else None
     on_set_end = None
     if checkpoint is not None:
@@ -158,11 +164,15 @@ def execute(
         trace=bool(spec.trace_robot),
         on_set_end=on_set_end,
         resume=resume_at,
+        recorder=recorder,
     )
     out = summarize_run(scenario, stream, record, allocator.learns)
     out["spec"] = dataclasses.asdict(spec)
-    if hasattr(world, "summary"):
-        out["spatial"] = world.summary(record)
+    if scenario.spatial is not None:
+        out["spatial"] = {
+            **spatial_metrics(scenario, stream, record, spec.cost),
+            **world.summary(record),
+        }
     if spec.trace_robot and record.trace_u:
         j = [r.name for r in scenario.robots].index(spec.trace_robot)
         learn_rounds = len(record.learn.task_ids)

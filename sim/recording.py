@@ -65,7 +65,8 @@ class TrajectoryRecorder:
         self._pos: list[np.ndarray] = []
         self._head: list[np.ndarray] = []
         self._state: list[np.ndarray] = []
-        self._tasks: dict[int, list] = {}
+        self._rows: list[list] = []  # one per announcement: a replayed set announces ids again
+        self._latest: dict[int, int] = {}  # task id -> row of its latest announcement
         self._next_t = -np.inf
 
     def poses(self, t_s: float, positions, headings, states) -> None:
@@ -81,50 +82,52 @@ class TrajectoryRecorder:
     def announce(self, t_s: float, ids, types, high, sites) -> None:
         for k, tid in enumerate(np.asarray(ids).tolist()):
             xy = sites[k] if sites is not None else (np.nan, np.nan)
-            self._tasks[tid] = [
-                int(types[k]),
-                bool(high[k]),
-                float(xy[0]),
-                float(xy[1]),
-                t_s,
-                np.nan,
-                np.nan,
-                -1,
-            ]
+            self._latest[tid] = len(self._rows)
+            self._rows.append(
+                [
+                    tid,
+                    int(types[k]),
+                    bool(high[k]),
+                    float(xy[0]),
+                    float(xy[1]),
+                    t_s,
+                    np.nan,
+                    np.nan,
+                    -1,
+                ]
+            )
 
     def allocate(self, t_s: float, ids, assignment) -> None:
-        for tid, robot in zip(
-            np.asarray(ids).tolist(), np.asarray(assignment).tolist(), strict=True
-        ):
+        pairs = zip(np.asarray(ids).tolist(), np.asarray(assignment).tolist(), strict=True)
+        for tid, robot in pairs:
             if robot >= 0:
-                self._tasks[tid][5] = t_s
-                self._tasks[tid][7] = robot
+                row = self._rows[self._latest[tid]]
+                row[6], row[8] = t_s, robot
 
     def done(self, task_id: int, t_s: float) -> None:
-        self._tasks[task_id][6] = t_s
+        self._rows[self._latest[task_id]][7] = t_s
 
     def finish(self) -> Trajectory:
-        ids = np.array(sorted(self._tasks), dtype=np.int64)
-        rows = [self._tasks[i] for i in ids.tolist()]
-        col = (
-            (lambda k, dt: np.array([r[k] for r in rows], dtype=dt))
-            if rows
-            else (lambda k, dt: np.zeros(0, dtype=dt))
-        )
+        """The recording as arrays; tasks in announcement order (a replayed set appears again)."""
+        rows = self._rows
+
+        def col(k: int, dtype) -> np.ndarray:
+            return np.array([r[k] for r in rows], dtype=dtype) if rows else np.zeros(0, dtype=dtype)
+
         m = len(self.robot_names)
         return Trajectory(
             times_s=np.array(self._times, dtype=float),
             positions=np.array(self._pos, dtype=np.float32).reshape(-1, m, 2),
             headings=np.array(self._head, dtype=np.float32).reshape(-1, m),
             robot_state=np.array(self._state, dtype=np.int8).reshape(-1, m),
-            task_id=ids,
-            task_type=col(0, np.int64),
-            task_high=col(1, bool),
-            task_xy=np.column_stack([col(2, float), col(3, float)]).reshape(-1, 2),
-            t_announce=col(4, float),
-            t_alloc=col(5, float),
-            t_done=col(6, float),
-            task_robot=col(7, np.int64),
+            task_id=col(0, np.int64),
+            task_type=col(1, np.int64),
+            task_high=col(2, bool),
+            task_xy=np.column_stack([col(3, float), col(4, float)]).reshape(-1, 2),
+            t_announce=col(5, float),
+            t_alloc=col(6, float),
+            t_done=col(7, float),
+            task_robot=col(8, np.int64),
             arena_wh=self.arena_wh,
             obstacles=self.obstacles,
             type_names=self.type_names,

@@ -1,0 +1,229 @@
+"""Argument parsing of the ``mrta`` command line: subcommands, their options and value types."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, exit 2 (argparse prints usage too; keep it short)
+        self.exit(
+            EXIT_USAGE, f"mrta: error: {message} (see 'mrta {self.prog.split()[-1]} --help')\n"
+        )
+
+
+def _seed_list(text: str) -> list[int]:
+    """'10' -> seeds 0..9; '3,5,8' -> those seeds; '2-6' -> 2..6."""
+    try:
+        if "," in text:
+            seeds = [int(s) for s in text.split(",") if s.strip()]
+        elif "-" in text.strip("-"):
+            a, b = text.split("-", 1)
+            seeds = list(range(int(a), int(b) + 1))
+        else:
+            n = int(text)
+            if n < 1:
+                raise argparse.ArgumentTypeError(f"need at least one seed, got {n}")
+            seeds = list(range(n))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a seed count or list: {text!r}") from None
+    if not seeds or min(seeds) < 0:
+        raise argparse.ArgumentTypeError(f"seeds must be non-negative integers: {text!r}")
+    return seeds
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from learning import ALLOCATORS
+
+    p = _Parser(
+        prog="mrta",
+        description="Multi-robot task allocation: market auction, QL-MRTA and ExpT-MRTA "
+        "(Ezercan Kayır) in an abstract cost world or a pymunk world.",
+        epilog="Scenarios are bundled names (mrta validate --list) or TOML paths.",
+    )
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    v = sub.add_parser("validate", help="check scenario files and print a short description")
+    v.add_argument("files", nargs="*", help="scenario names or TOML paths")
+    v.add_argument("--list", action="store_true", help="list the bundled scenarios")
+
+    r = sub.add_parser(
+        "reproduce",
+        help="the paper protocol for all allocators over seeds: metrics.json, figures, Table 2",
+        description="Run market, QL-MRTA and ExpT-MRTA on the same seeded task streams "
+        "(learning sets with exploration, then test sets greedily), plus a delta_u sweep "
+        "for the trade-off plot, and write metrics.json, fig1_completion.png, fig2_r5.png, "
+        "table2.md and tradeoff.png to --out.",
+    )
+    r.add_argument(
+        "--scenario", default=None, help="default: paper (paper_spatial for --cost distance/time)"
+    )
+    r.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
+    r.add_argument(
+        "--seeds",
+        type=_seed_list,
+        default=_seed_list("10"),
+        help="a count N (seeds 0..N-1), a list '1,4,9' or a range '0-19' (default 10)",
+    )
+    r.add_argument(
+        "--out", type=Path, default=None, help="output folder (default renders/<scenario>/)"
+    )
+    r.add_argument(
+        "--workers", type=_positive_int, default=None, help="processes (default: all cores)"
+    )
+    r.add_argument("--robot", default="R5", help="robot whose experience fig2 shows (default R5)")
+    r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+    s = sub.add_parser("stream", help="write a seeded task stream to JSON or CSV for replay")
+    s.add_argument("scenario")
+    s.add_argument("--seed", type=_non_negative_int, default=0)
+    s.add_argument("--out", type=Path, required=True, help="FILE.json or FILE.csv")
+
+    run = sub.add_parser(
+        "run",
+        help="one allocator, one cost model, one seed: metrics.json and run_manifest.json",
+        description="Play the paper protocol once. Writes metrics.json and run_manifest.json to "
+        "--out; with --checkpoint also checkpoint.npz after every task set, which --resume "
+        "continues from (the result equals an uninterrupted run). --replay repeats the run a "
+        "manifest describes and must give an identical metrics.json.",
+    )
+    run.add_argument("scenario", nargs="?", help="scenario name or TOML path (not with --replay)")
+    run.add_argument(
+        "--replay",
+        type=Path,
+        default=None,
+        metavar="MANIFEST",
+        help="repeat the run recorded in a run_manifest.json",
+    )
+    run.add_argument(
+        "--checkpoint", action="store_true", help="write OUT/checkpoint.npz after every set"
+    )
+    run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
+    run.add_argument("--allocator", choices=sorted(ALLOCATORS), default="expt")
+    run.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
+    run.add_argument("--seed", type=_non_negative_int, default=0)
+    run.add_argument("--stream", type=Path, default=None, help="replay a stream file (mrta stream)")
+    run.add_argument("--out", type=Path, default=None, help="output folder (default renders/run/)")
+    c = sub.add_parser(
+        "compare",
+        help="cost models x allocators side by side (spatial scenarios): table and plot",
+        description="Run every allocator under every cost model on the same seeded streams and "
+        "write compare.json, compare.md and compare.png (completion per priority, distance "
+        "driven, waiting of high-priority tasks, learning space; 95%% CI over seeds).",
+    )
+    c.add_argument("scenario")
+    c.add_argument(
+        "--costs",
+        type=_name_list({"abstract", "distance", "time"}),
+        default=["abstract", "distance"],
+        help="comma-separated cost models (default abstract,distance)",
+    )
+    c.add_argument(
+        "--allocators",
+        type=_name_list(set(ALLOCATORS)),
+        default=list(ALLOCATORS),
+        help="comma-separated allocators (default market,ql,expt)",
+    )
+    c.add_argument(
+        "--seeds", type=_seed_list, default=_seed_list("5"), help="count, list or range (default 5)"
+    )
+    c.add_argument(
+        "--out", type=Path, default=None, help="output folder (default renders/compare/<scenario>)"
+    )
+    c.add_argument("--workers", type=_positive_int, default=None)
+    c.add_argument("--no-progress", action="store_true")
+
+    g = sub.add_parser(
+        "render",
+        help="run a spatial scenario and write a trajectory GIF (headless)",
+        description="Play the protocol (its first --sets task sets) in a spatial world, record "
+        "robot poses and task events, and draw frames between --from and --to simulated seconds "
+        "into a GIF (and an MP4 with --mp4 where ffmpeg exists). No display needed.",
+    )
+    g.add_argument("scenario")
+    g.add_argument("--allocator", choices=sorted(ALLOCATORS), default="expt")
+    g.add_argument("--cost", choices=["abstract", "distance", "time"], default="distance")
+    g.add_argument("--seed", type=_non_negative_int, default=0)
+    g.add_argument("--sets", type=_positive_int, default=2, help="task sets to play (default 2)")
+    g.add_argument("--gif", type=Path, required=True, help="output GIF path")
+    g.add_argument("--mp4", type=Path, default=None, help="also write an MP4 (needs ffmpeg)")
+    g.add_argument("--frames", type=_positive_int, default=200)
+    g.add_argument("--fps", type=_positive_int, default=20)
+    g.add_argument("--size", type=_size, default=(600, 600), help="WxH pixels (default 600x600)")
+    g.add_argument(
+        "--from", dest="t_from", type=float, default=0.0, help="start, simulated s (default 0)"
+    )
+    g.add_argument(
+        "--to",
+        dest="t_to",
+        type=float,
+        default=None,
+        help="end, simulated s (default: --from + 180 or the end of the run)",
+    )
+    g.add_argument(
+        "--trail", type=float, default=10.0, help="trail length, simulated s (default 10)"
+    )
+    g.add_argument("--trajectory", type=Path, default=None, help="also save the recording (.npz)")
+
+    b = sub.add_parser(
+        "bench",
+        help="speed and memory: simulation loop, GIF rendering, allocation, as ratios in one run",
+        description="Measure, in this process, the full simulation loop against bare "
+        "space.step (10/100/1000 robots), our GIF writer against FuncAnimation + PillowWriter, "
+        "and allocation time per round against team size. --json prints one JSON object.",
+    )
+    b.add_argument("--json", action="store_true", help="print one JSON object")
+    b.add_argument(
+        "--only",
+        type=_name_list({"sim", "gif", "alloc"}),
+        default=["sim", "gif", "alloc"],
+        help="comma-separated parts (default sim,gif,alloc)",
+    )
+    return p
+
+
+def _name_list(allowed: set[str]):
+    def parse(text: str) -> list[str]:
+        names = [x.strip() for x in text.split(",") if x.strip()]
+        bad = [x for x in names if x not in allowed]
+        if bad or not names:
+            raise argparse.ArgumentTypeError(
+                f"unknown {', '.join(bad) or 'empty list'}; "
+                f"choose from {', '.join(sorted(allowed))}"
+            )
+        return list(dict.fromkeys(names))
+
+    return parse
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must be WxH, e.g. 600x600, got {text!r}") from None
+    if not (64 <= w <= 4096 and 64 <= h <= 4096):
+        raise argparse.ArgumentTypeError(f"size {w}x{h} outside 64..4096 pixels per side")
+    return w, h

@@ -1,0 +1,132 @@
+"""``mrta compare``: cost models x allocators on the same seeded streams, side by side."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from scenarios.figures import ALLOCATOR_LABELS, STYLE, _figure, _save, allocator_colour
+from scenarios.metrics import aggregate
+from scenarios.protocol import RunSpec, _load, check_cost, run_many, write_json_atomic
+
+COLUMNS = (
+    ("low", "completion low", "{:.3f}"),
+    ("high", "completion high", "{:.3f}"),
+    ("all", "completion all", "{:.3f}"),
+    ("distance_m", "distance driven [m]", "{:.0f}"),
+    ("high_wait_s", "high-prio wait [s]", "{:.2f}"),
+    ("space", "learning space", "{:.0f}"),
+)
+
+
+def compare(
+    scenario: str,
+    costs: list[str],
+    allocators: list[str],
+    seeds: list[int],
+    out: Path,
+    workers: int | None = None,
+    progress: bool = True,
+) -> dict:
+    """Run every (cost, allocator, seed), write compare.json, compare.md and compare.png."""
+    sc = _load(scenario)
+    for cost in costs:
+        check_cost(sc, cost)
+    combos = [(c, a) for c in costs for a in allocators]
+    specs = [RunSpec(scenario, a, c, s) for c, a in combos for s in seeds]
+    results = run_many(specs, workers=workers, progress=progress, desc=f"compare {sc.name}")
+    n = len(seeds)
+    table = {}
+    for k, (cost, alloc) in enumerate(combos):
+        agg = aggregate(results[k * n : (k + 1) * n])
+        table[f"{cost}/{alloc}"] = {"cost": cost, "allocator": alloc, **_row(agg)}
+    doc = {"scenario": sc.name, "seeds": list(seeds), "rows": table}
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "compare.json", doc)
+    (out / "compare.md").write_text(markdown_table(doc) + "\n")
+    fig_compare(doc, out / "compare.png")
+    return doc
+
+
+def _row(agg: dict) -> dict:
+    comp, ci = agg["completion"]["overall"], agg["completion"]["ci95"]["overall"]
+    row = {p: comp[p] for p in ("low", "high", "all")}
+    row.update({f"{p}_ci95": ci[p] for p in ("low", "high", "all")})
+    spatial = agg.get("spatial", {})
+    for key in (
+        "distance_m",
+        "high_wait_s",
+        "time_to_finish_s",
+        "estimate_abs_error",
+        "max_overlap_m",
+    ):
+        row[key] = spatial.get(key, float("nan"))
+        row[f"{key}_ci95"] = spatial.get("ci95", {}).get(key, float("nan"))
+    space = agg.get("learning_space")
+    row["space"] = space["final"] if space else float("nan")
+    row["space_ci95"] = space["final_ci95"] if space else float("nan")
+    return row
+
+
+def markdown_table(doc: dict) -> str:
+    head = "| cost | allocator | " + " | ".join(label for _, label, _ in COLUMNS) + " |"
+    lines = [head, "|---|---|" + "---|" * len(COLUMNS)]
+    for row in doc["rows"].values():
+        cells = []
+        for key, _, fmt in COLUMNS:
+            value, half = row[key], row.get(f"{key}_ci95", float("nan"))
+            if isinstance(value, float) and math.isnan(value):
+                cells.append("–")
+            elif isinstance(half, float) and not math.isnan(half):
+                cells.append(f"{fmt.format(value)} ± {fmt.format(half)}")
+            else:
+                cells.append(fmt.format(value))
+        lines.append(f"| {row['cost']} | {row['allocator']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def fig_compare(doc: dict, path: Path | None = None):
+    """Six panels: completion (high, low, all), distance, high-priority waiting, learning space."""
+    import matplotlib as mpl
+    import numpy as np
+
+    rows = list(doc["rows"].values())
+    costs = list(dict.fromkeys(r["cost"] for r in rows))
+    allocs = list(dict.fromkeys(r["allocator"] for r in rows))
+    panels = (
+        ("high", "completion ratio, high priority"),
+        ("low", "completion ratio, low priority"),
+        ("all", "completion ratio, all tasks"),
+        ("distance_m", "distance driven, test sets [m]"),
+        ("high_wait_s", "wait of high-priority tasks [s]"),
+        ("space", "final learning space |S| x |A|"),
+    )
+    with mpl.rc_context(STYLE):
+        fig = _figure(12.0, 6.6)
+        axes = fig.subplots(2, 3).ravel()
+        width = 0.8 / len(allocs)
+        x = np.arange(len(costs))
+        for ax, (key, title) in zip(axes, panels, strict=True):
+            for k, alloc in enumerate(allocs):
+                vals = [doc["rows"][f"{c}/{alloc}"][key] for c in costs]
+                errs = [doc["rows"][f"{c}/{alloc}"][f"{key}_ci95"] for c in costs]
+                bars = ax.bar(
+                    x + (k - (len(allocs) - 1) / 2) * width,
+                    vals,
+                    width,
+                    yerr=errs,
+                    capsize=2,
+                    color=allocator_colour(alloc, k),
+                    label=ALLOCATOR_LABELS.get(alloc, alloc),
+                )
+                for bar, c in zip(bars, costs, strict=True):
+                    bar.set_gid(f"{key}|{c}|{alloc}")
+            ax.set_xticks(x, [f"{c} cost" for c in costs])
+            ax.set_title(title)
+            ax.grid(axis="y", alpha=0.3)
+        handles, labels = axes[0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside lower center", ncols=len(allocs), frameon=False)
+        fig.suptitle(f"{doc['scenario']}: cost models compared ({len(doc['seeds'])} seeds, 95% CI)")
+    _save(fig, path)
+    return fig

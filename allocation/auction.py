@@ -5,9 +5,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from allocation.sparse import cheapest_bidders
 from sim.scenario import Scenario
 from sim.tasks import Batch
 from sim.world import WorldState
+
+# Robots above which only the k cheapest bidders of each task are kept: the reduction pays off
+# from about 300 robots x 7 tasks (measured on 2 cores; 1.5x faster at 1000, 3x at 5000).
+REDUCE_ABOVE = 256
 
 
 def solve_priority_assignment(bids: np.ndarray, high: np.ndarray) -> np.ndarray:
@@ -15,9 +20,14 @@ def solve_priority_assignment(bids: np.ndarray, high: np.ndarray) -> np.ndarray:
 
     The assignment maximises the number of high-priority tasks taken, then the number of
     low-priority ones, then minimises the total bid. Bids are non-negative; ``inf`` (or NaN)
-    means "no bid". The lexicographic order is folded into one linear assignment problem:
-    bids are scaled so that their total is below 1, a low task is worth 1 and a high task is
-    worth more than every possible count of low tasks.
+    means "no bid".
+
+    Up to ``REDUCE_ABOVE`` robots the whole matrix is solved
+    (:func:`solve_priority_assignment_dense`). Above, the robots are first reduced to the k
+    cheapest bidders of each of the k tasks (:func:`allocation.sparse.cheapest_bidders`, which
+    proves that an optimum of the reduced problem is an optimum of the full one), so a round
+    with thousands of bidders costs little more than one with 7k. Both paths return an optimal
+    assignment; among several equally good ones (equal bids) they may pick different ones.
 
     Args:
         bids: (m, k) bid of robot j for task t.
@@ -25,6 +35,25 @@ def solve_priority_assignment(bids: np.ndarray, high: np.ndarray) -> np.ndarray:
 
     Returns:
         (k,) robot index for each task, or -1 for a task nobody takes.
+    """
+    m, k = bids.shape
+    if m <= REDUCE_ABOVE or m <= k:
+        return solve_priority_assignment_dense(bids, high)
+    rows = cheapest_bidders(bids)
+    out = np.full(k, -1, dtype=int)
+    if rows.size:
+        sub = solve_priority_assignment_dense(bids[rows], high)
+        taken = sub >= 0
+        out[taken] = rows[sub[taken]]
+    return out
+
+
+def solve_priority_assignment_dense(bids: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """:func:`solve_priority_assignment` on the whole matrix, without bidder reduction.
+
+    The lexicographic order is folded into one linear assignment problem: bids are scaled so
+    that their total is below 1, a low task is worth 1 and a high task is worth more than every
+    possible count of low tasks.
     """
     k = bids.shape[1]
     out = np.full(k, -1, dtype=int)

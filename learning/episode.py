@@ -31,6 +31,9 @@ class PhaseRecord:
     assigned: list[np.ndarray] = field(default_factory=list)  # robot per task, -1 = lost
     bids: list[np.ndarray] = field(default_factory=list)  # winning bid per task (NaN if lost)
     completions: list[Completion] = field(default_factory=list)
+    announced: int = 0  # counted, not kept, when run_protocol(keep=False)
+    allocated: int = 0
+    failed: int = 0
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.task_ids:
@@ -73,6 +76,7 @@ def run_protocol(
     on_set_end: Callable[[int, int, RunRecord], None] | None = None,
     resume: tuple[int, int, RunRecord] | None = None,
     recorder=None,
+    keep: bool = True,
 ) -> RunRecord:
     """Play the stream's sets through ``world`` with ``allocator`` and record what happened.
 
@@ -83,6 +87,8 @@ def run_protocol(
             world state were restored from a checkpoint written at that position.
         recorder: a ``sim.recording.TrajectoryRecorder`` told of announcements, allocations
             and completions (the world feeds it poses).
+        keep: keep every task's fate in the record; False keeps only counts (long soaks run in
+            constant memory; invariants are still checked set by set).
     """
     if phases is None:
         learn_sets, test_sets = protocol_sets(scenario)
@@ -110,44 +116,49 @@ def run_protocol(
             if pi == start_phase and pos < start_pos:
                 continue
             allocator.begin_set(s, learning=phase_name == "learn")
+            ids, assigned, bids, done = [], [], [], []
             for batch in stream.batches(s):
                 state = world.snapshot()
                 willing = allocator.willing().copy()
                 costs = cost_model.costs(state, batch)
-                assignment, bids = allocator.allocate(state, batch, costs)
-                _check_assignment(assignment, bids, batch, state.free, willing, capable)
+                assignment, bid_matrix = allocator.allocate(state, batch, costs)
+                _check_assignment(assignment, bid_matrix, batch, state.free, willing, capable)
                 won = assignment >= 0
                 won_bid = np.full(len(batch), np.nan)
                 won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
                 world.apply(batch, assignment, won_bid)
-                phase.task_ids.append(batch.ids)
-                phase.assigned.append(assignment)
-                phase.bids.append(won_bid)
-                done = world.advance(interval)
+                ids.append(batch.ids)
+                assigned.append(assignment)
+                bids.append(won_bid)
+                ended = world.advance(interval)
                 if recorder is not None:
-                    _record_round(recorder, state.time_s, batch, assignment, done)
-                phase.completions.extend(done)
+                    _record_round(recorder, state.time_s, batch, assignment, ended)
+                done.extend(ended)
                 rounds += 1
                 if trace:
                     _trace(record, allocator, rounds)
                 if on_round is not None:
                     on_round()
-            done = world.drain()
+            ended = world.drain()
             if recorder is not None:
-                for c in done:
+                for c in ended:
                     recorder.done(c.task_id, c.t_done_s)
-            phase.completions.extend(done)
+            done.extend(ended)
             allocator.end_set()
+            _check_set(phase_name, s, ids, assigned, done, allocator, scenario)
+            if keep:
+                phase.task_ids += ids
+                phase.assigned += assigned
+                phase.bids += bids
+                phase.completions += done
+            else:
+                phase.announced += sum(a.size for a in assigned)
+                phase.allocated += sum(int((a >= 0).sum()) for a in assigned)
+                phase.failed += sum(not c.ok for c in done)
             if on_set_end is not None:
                 on_set_end(pi, pos + 1, record)
-        _check_conservation(phase_name, phase)
     record.space_final = allocator.learning_space().copy()
     record.willing_final = allocator.willing().copy()
-    space = np.array(
-        [2 * int(row.sum()) ** scenario.learning.history for row in record.willing_final]
-    )
-    if allocator.learns and not np.array_equal(space, record.space_final):
-        raise InvariantError("learning-space sizes differ from 2 * n**h of the robots' task sets")
     return record
 
 
@@ -182,11 +193,27 @@ def _check_assignment(assignment, bids, batch, free, willing, capable) -> None:
         raise InvariantError("a robot was given a task type it has refused")
 
 
-def _check_conservation(name: str, phase: PhaseRecord) -> None:
-    ids, assigned = phase.arrays()
-    done = sorted(c.task_id for c in phase.completions)
-    if done != sorted(ids[assigned >= 0].tolist()):
-        raise InvariantError(f"{name} phase: allocated tasks and completed or failed tasks differ")
+def _check_set(name: str, s: int, ids, assigned, done, allocator, scenario) -> None:
+    """Per-set invariants: each announced task allocated or lost once; every allocated task
+    completed or failed with a reason; learning spaces equal 2 * n**h of the task sets."""
+    all_ids = np.concatenate(ids) if ids else np.zeros(0, dtype=int)
+    taken = np.concatenate(assigned) >= 0 if assigned else np.zeros(0, dtype=bool)
+    if np.unique(all_ids).size != all_ids.size:
+        raise InvariantError(f"{name} phase, set {s}: a task was announced twice")
+    finished = sorted(c.task_id for c in done)
+    if finished != sorted(all_ids[taken].tolist()):
+        raise InvariantError(
+            f"{name} phase, set {s}: allocated tasks and completed or failed tasks differ"
+        )
+    if any(not c.ok and not c.reason for c in done):
+        raise InvariantError(f"{name} phase, set {s}: a task failed without a reason")
+    if allocator.learns:
+        h = scenario.learning.history
+        space = np.array([2 * int(row.sum()) ** h for row in allocator.willing()])
+        if not np.array_equal(space, allocator.learning_space()):
+            raise InvariantError(
+                "learning-space sizes differ from 2 * n**h of the robots' task sets"
+            )
 
 
 COMPLETION_COLUMNS = (

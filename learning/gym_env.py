@@ -9,12 +9,15 @@ market's exact priority auction resolves the bids. The team reward follows SPEC 
 ``-penalty_lost_high`` for each high-priority task lost while a robot that could have done it
 was busy with a low-priority task.
 
-An episode plays the sets of one seeded stream (all sets by default, or only the test sets),
-exactly as :func:`learning.episode.run_protocol` does.
+An episode plays the sets of one seeded stream (all sets by default, only the learning or the
+test sets, or the paper protocol: learning sets then test sets), exactly as
+:func:`learning.episode.run_protocol` does. :class:`AllocationRounds` is the round mechanics
+this env shares with the PettingZoo env (:mod:`learning.pz_env`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -26,16 +29,151 @@ from allocation.costs import make_cost_model
 from learning.experience import ExperienceModel
 from sim import make_world
 from sim.scenario import Scenario
-from sim.tasks import generate_stream
+from sim.tasks import Batch, generate_stream
 
 MAX_SLOTS = 7
 BUSY_CAP_S = 1.0e6  # observation bound on seconds of work left (clipped)
+SET_CHOICES = ("all", "learn", "test", "protocol")
 
 
-class AllocationEnv(gym.Env):
-    """``mrta/Allocation-v0``: bid/wait decisions of all robots for one announced batch a step."""
+def set_order(scenario: Scenario, sets: str) -> list[int]:
+    """Zero-based set indices an episode plays: all, learn, test, or protocol (learn then test)."""
+    s = scenario.stream
+    learn, test = list(range(s.learn_sets)), list(scenario.test_set_indices())
+    return {"all": list(range(s.n_sets)), "learn": learn, "test": test, "protocol": learn + test}[
+        sets
+    ]
+
+
+@dataclass(frozen=True, slots=True)
+class RoundOutcome:
+    """What one announcement round did, for the envs to turn into rewards."""
+
+    batch: Batch
+    assignment: np.ndarray  # (k,) robot per task, -1 = lost
+    bid: np.ndarray  # (m, k) bool: bids the auction saw
+    busy_low: np.ndarray  # (m,) robots busy with a low-priority task when the round began
+
+    @property
+    def won(self) -> np.ndarray:
+        return self.assignment >= 0
+
+    @property
+    def lost_high_types(self) -> np.ndarray:
+        return self.batch.types[~self.won & self.batch.high]
+
+
+class AllocationRounds:
+    """Round mechanics shared by the Gymnasium and the PettingZoo env (a mixin: no API of its own).
+
+    Public state, read by renderers and policies: ``scenario``, ``capable``, ``world``,
+    ``cost_model``, ``stream_``, ``experience_`` (observed TEM, never refusing), ``batch_`` (the
+    batch to decide on), ``last_assignment_``, ``announced_`` / ``allocated_`` (low, high).
+    """
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def _setup(self, scenario: Scenario, cost: str, sets: str, render_mode: str | None) -> None:
+        self.scenario = sc = scenario
+        if sc.stream.batch_max > MAX_SLOTS:
+            raise ValueError(f"batch_max {sc.stream.batch_max} exceeds the env's {MAX_SLOTS} slots")
+        if sets not in SET_CHOICES:
+            raise ValueError(f"sets must be one of {SET_CHOICES}, got {sets!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.sets = sets
+        self.render_mode = render_mode
+        self.capable = sc.capability_matrix()
+        self.world = make_world(sc)
+        self.cost_model = make_cost_model(cost, sc, getattr(self.world, "planner", None))
+
+    def _start(self, run_seed: int, sets: str | None = None) -> None:
+        """Draw the stream of ``run_seed`` and stand before its first round."""
+        stream_ss, world_ss, _ = np.random.SeedSequence(run_seed).spawn(3)
+        self.stream_ = generate_stream(self.scenario, np.random.default_rng(stream_ss))
+        self.world.reset(np.random.default_rng(world_ss))
+        spec = self.scenario.experience
+        self.experience_ = ExperienceModel(
+            self.capable, type(spec)(delta_v=spec.delta_v, delta_u=0.0)
+        )
+        self.set_order_ = set_order(self.scenario, sets or self.sets)
+        self.batches_ = iter(
+            [(p, b) for p, s in enumerate(self.set_order_) for b in self.stream_.batches(s)]
+        )
+        self.busy_low_ = np.zeros(self.scenario.n_robots, dtype=bool)
+        self.announced_ = np.zeros((2,), dtype=np.int64)  # low, high
+        self.allocated_ = np.zeros((2,), dtype=np.int64)
+        self.batch_ = None
+        self.set_position_ = 0
+        self.last_assignment_ = np.zeros(0, dtype=int)
+        self._next_batch()
+
+    def _play(self, action: np.ndarray) -> tuple[RoundOutcome, bool]:
+        """Resolve one round from an (m, k) bool bid matrix; return (outcome, terminated)."""
+        batch = self.batch_
+        state = self.world.snapshot()
+        self.busy_low_ &= ~state.free
+        busy_low = self.busy_low_.copy()
+        costs = self.cost_model.costs(state, batch)
+        bid = action & state.free[:, None] & np.isfinite(costs)
+        assignment = solve_priority_assignment(np.where(bid, costs, np.inf), batch.high)
+        for t in range(len(batch)):
+            self.experience_.observe_auction(
+                int(batch.types[t]), np.flatnonzero(bid[:, t]), int(assignment[t])
+            )
+        won = assignment >= 0
+        np.add.at(self.announced_, batch.high.astype(int), 1)
+        np.add.at(self.allocated_, batch.high[won].astype(int), 1)
+        won_bid = np.full(len(batch), np.nan)
+        won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
+        self.world.apply(batch, assignment, won_bid)
+        self.busy_low_[assignment[won]] = ~batch.high[won]
+        self.world.advance(self.scenario.stream.announce_interval_s)
+        self.last_assignment_ = assignment
+        terminated = not self._next_batch()
+        return RoundOutcome(batch, assignment, bid, busy_low), terminated
+
+    def _next_batch(self) -> bool:
+        """Advance to the next non-empty round; drain the world between sets."""
+        previous = self.batch_
+        for position, batch in self.batches_:
+            if previous is not None and position != self.set_position_:
+                self.world.drain()
+                self.busy_low_[:] = False
+            self.batch_, self.set_position_ = batch, position
+            return True
+        self.world.drain()
+        return False
+
+    def _slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(type, high, valid) of the current batch, padded to ``MAX_SLOTS``."""
+        k = len(self.batch_)
+        types = np.zeros(MAX_SLOTS, dtype=np.int64)
+        high = np.zeros(MAX_SLOTS, dtype=np.int8)
+        valid = np.zeros(MAX_SLOTS, dtype=np.int8)
+        types[:k], high[:k], valid[:k] = self.batch_.types, self.batch_.high, 1
+        return types, high, valid
+
+    @staticmethod
+    def _busy_s(state) -> np.ndarray:
+        """Seconds of work left per robot, float32, clipped to the observation bound."""
+        return np.clip(state.busy_until_s - state.time_s, 0.0, BUSY_CAP_S).astype(np.float32)
+
+    def _info(self) -> dict[str, Any]:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = self.allocated_ / self.announced_
+        return {
+            "set": int(self.batch_.set_index),
+            "round": int(self.batch_.round_index),
+            "set_position": int(self.set_position_),  # index into the episode's set order
+            "announced": {"low": int(self.announced_[0]), "high": int(self.announced_[1])},
+            "allocated": {"low": int(self.allocated_[0]), "high": int(self.allocated_[1])},
+            "completion": {"low": float(ratio[0]), "high": float(ratio[1])},
+        }
+
+
+class AllocationEnv(AllocationRounds, gym.Env):
+    """``mrta/Allocation-v0``: bid/wait decisions of all robots for one announced batch a step."""
 
     def __init__(
         self,
@@ -44,19 +182,8 @@ class AllocationEnv(gym.Env):
         sets: str = "all",
         render_mode: str | None = None,
     ) -> None:
-        self.scenario = sc = scenario
-        if sc.stream.batch_max > MAX_SLOTS:
-            raise ValueError(f"batch_max {sc.stream.batch_max} exceeds the env's {MAX_SLOTS} slots")
-        if sets not in ("all", "test"):
-            raise ValueError(f"sets must be 'all' or 'test', got {sets!r}")
-        if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
-        self.sets = sets
-        self.render_mode = render_mode
-        self.capable = sc.capability_matrix()
-        self.world = make_world(sc)
-        self.cost_model = make_cost_model(cost, sc, getattr(self.world, "planner", None))
-        m, n = sc.n_robots, sc.n_types
+        self._setup(scenario, cost, sets, render_mode)
+        m, n = scenario.n_robots, scenario.n_types
         self.observation_space = spaces.Dict(
             {
                 "free": spaces.MultiBinary(m),
@@ -73,53 +200,21 @@ class AllocationEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
-        stream_ss, world_ss, _ = np.random.SeedSequence(run_seed).spawn(3)
-        self.stream_ = generate_stream(self.scenario, np.random.default_rng(stream_ss))
-        self.world.reset(np.random.default_rng(world_ss))
-        spec = self.scenario.experience
-        self.experience_ = ExperienceModel(
-            self.capable, type(spec)(delta_v=spec.delta_v, delta_u=0.0)
-        )
-        all_sets = list(range(self.scenario.stream.n_sets))
-        self.set_order_ = all_sets if self.sets == "all" else list(self.scenario.test_set_indices())
-        self.batches_ = iter([b for s in self.set_order_ for b in self.stream_.batches(s)])
-        self.busy_low_ = np.zeros(self.scenario.n_robots, dtype=bool)
-        self.announced_ = np.zeros((2,), dtype=np.int64)  # low, high
-        self.allocated_ = np.zeros((2,), dtype=np.int64)
-        self._next_batch()
+        self._start(run_seed)
         return self._obs(), self._info()
 
     def step(self, action):
-        sc, batch = self.scenario, self.batch_
-        action = np.asarray(action, dtype=bool).reshape(sc.n_robots, MAX_SLOTS)[:, : len(batch)]
-        state = self.world.snapshot()
-        self.busy_low_ &= ~state.free
-        costs = self.cost_model.costs(state, batch)
-        bid = action & state.free[:, None] & np.isfinite(costs)
-        bids = np.where(bid, costs, np.inf)
-        assignment = solve_priority_assignment(bids, batch.high)
-        for t in range(len(batch)):
-            self.experience_.observe_auction(
-                int(batch.types[t]), np.flatnonzero(bid[:, t]), int(assignment[t])
-            )
-        won = assignment >= 0
-        lost_high = batch.types[~won & batch.high]
-        p = sc.learning
+        sc = self.scenario
+        k = len(self.batch_)
+        action = np.asarray(action, dtype=bool).reshape(sc.n_robots, MAX_SLOTS)[:, :k]
+        out, terminated = self._play(action)
+        batch, won, p = out.batch, out.won, sc.learning
         reward = p.reward_high * float((won & batch.high).sum()) + p.reward_low * float(
             (won & ~batch.high).sum()
         )
         reward -= p.penalty_lost_high * float(
-            sum(bool((self.busy_low_ & self.capable[:, i]).any()) for i in lost_high)
+            sum(bool((out.busy_low & self.capable[:, i]).any()) for i in out.lost_high_types)
         )
-        np.add.at(self.announced_, batch.high.astype(int), 1)
-        np.add.at(self.allocated_, batch.high[won].astype(int), 1)
-        won_bid = np.full(len(batch), np.nan)
-        won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
-        self.world.apply(batch, assignment, won_bid)
-        self.busy_low_[assignment[won]] = ~batch.high[won]
-        self.world.advance(sc.stream.announce_interval_s)
-        self.last_assignment_ = assignment
-        terminated = not self._next_batch()
         return self._obs(), reward, terminated, False, self._info()
 
     def render(self):
@@ -129,46 +224,16 @@ class AllocationEnv(gym.Env):
 
         return env_frame(self)
 
-    # -- helpers -------------------------------------------------------------------------------
-    def _next_batch(self) -> bool:
-        """Advance to the next non-empty round; drain the world between sets."""
-        previous = getattr(self, "batch_", None)
-        for batch in self.batches_:
-            if previous is not None and batch.set_index != previous.set_index:
-                self.world.drain()
-                self.busy_low_[:] = False
-            self.batch_ = batch
-            return True
-        self.world.drain()
-        return False
-
     def _obs(self) -> dict[str, np.ndarray]:
+        types, high, valid = self._slots()
         state = self.world.snapshot()
-        k = len(self.batch_)
-        types = np.zeros(MAX_SLOTS, dtype=np.int64)
-        high = np.zeros(MAX_SLOTS, dtype=np.int8)
-        valid = np.zeros(MAX_SLOTS, dtype=np.int8)
-        types[:k], high[:k], valid[:k] = self.batch_.types, self.batch_.high, 1
         return {
             "free": state.free.astype(np.int8),
-            "busy_s": np.clip(state.busy_until_s - state.time_s, 0.0, BUSY_CAP_S).astype(
-                np.float32
-            ),
+            "busy_s": self._busy_s(state),
             "experience": self.experience_.u_.astype(np.float32),
             "task_type": types,
             "task_high": high,
             "task_valid": valid,
-        }
-
-    def _info(self) -> dict[str, Any]:
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ratio = self.allocated_ / self.announced_
-        return {
-            "set": int(self.batch_.set_index),
-            "round": int(self.batch_.round_index),
-            "announced": {"low": int(self.announced_[0]), "high": int(self.announced_[1])},
-            "allocated": {"low": int(self.allocated_[0]), "high": int(self.allocated_[1])},
-            "completion": {"low": float(ratio[0]), "high": float(ratio[1])},
         }
 
 

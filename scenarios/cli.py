@@ -201,6 +201,12 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_sweep(args) -> int:
+    from scenarios.sweep import cmd_sweep as run
+
+    return run(args)
+
+
 COMMANDS = {
     "validate": cmd_validate,
     "reproduce": cmd_reproduce,
@@ -209,6 +215,7 @@ COMMANDS = {
     "compare": cmd_compare,
     "render": cmd_render,
     "bench": cmd_bench,
+    "sweep": cmd_sweep,
 }
 
 

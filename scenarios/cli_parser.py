@@ -202,6 +202,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=["sim", "gif", "alloc"],
         help="comma-separated parts (default sim,gif,alloc)",
     )
+    from scenarios.sweep import add_parser as add_sweep_parser
+
+    add_sweep_parser(sub)
     return p
 
 

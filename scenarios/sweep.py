@@ -1,0 +1,240 @@
+"""``mrta sweep``: parameter sweeps from a TOML file, locally or on a Dask cluster, resumable.
+
+A sweep file names scenarios, allocators, cost models, seeds and the parameters to vary (any
+``section.key`` that :func:`scenarios.protocol.apply_overrides` understands)::
+
+    [sweep]
+    scenarios = ["paper"]
+    allocators = ["ql", "expt"]
+    costs = ["abstract"]            # default
+    seeds = 10                      # 0..9, or a list [0, 4, 7]
+
+    [fixed]                         # applied to every run
+    "stream.n_sets" = 20
+
+    [grid]                          # every combination (or [[points]]: explicit combinations)
+    "experience.delta_u" = [0.05, 0.1, 0.3]
+    "experience.n_min" = [20, 40]
+
+Every run writes one row to ``runs.csv`` as soon as it finishes (flushed and fsynced), so an
+interrupted sweep re-run into the same folder only runs what is missing. At the end the rows are
+rewritten in spec order (never in completion order), and ``summary.csv``, ``summary.json`` and
+one ``sensitivity_<parameter>.png`` per swept parameter are written, all atomically.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from pathlib import Path
+
+from scenarios.protocol import RunSpec, UserError, execute
+from scenarios.sweep_report import (
+    key_columns,
+    metric_row,
+    read_rows,
+    typed_row,
+    write_outputs,
+    write_rows_atomic,
+)
+from scenarios.sweep_spec import SweepSpec, load_sweep
+
+__all__ = ["SweepSpec", "add_parser", "cmd_sweep", "load_sweep", "run_sweep"]
+
+
+def _all_cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _run_metrics(spec: RunSpec) -> dict[str, str]:
+    """Worker side: run one spec, return its metric columns as CSV strings."""
+    return metric_row(execute(spec))
+
+
+def run_sweep(
+    spec_path: str | Path,
+    out: str | Path,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = True,
+) -> list[dict]:
+    """Run every combination of a sweep file and write runs.csv, summaries and plots to ``out``.
+
+    Args:
+        spec_path: the sweep TOML file (or a bundled sweep name, see ``load_sweep``).
+        out: output folder; runs already in ``out/runs.csv`` are not run again.
+        workers: local processes (default: every core this process may use); ignored with
+            ``scheduler``.
+        scheduler: address of a running dask.distributed scheduler (``tcp://host:8786``).
+        progress: show a tqdm bar with an ETA.
+
+    Returns:
+        One dict per run in spec order: the runs.csv row with numbers parsed.
+
+    Raises:
+        UserError, ScenarioError: a bad sweep file, scenario or output folder (one-line message).
+    """
+    sweep = load_sweep(spec_path)
+    client = _dask_client(scheduler) if scheduler else None
+    try:
+        return _run(sweep, Path(out), workers, client, progress)
+    finally:
+        if client is not None:
+            client.close()
+
+
+def _run(sweep: SweepSpec, out: Path, workers, client, progress: bool) -> list[dict]:
+    """Resume from ``out/runs.csv``, run what is missing, then write every output in spec order."""
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: --out must be a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = out / "runs.csv"
+    header = sweep.columns()
+    keys = [sweep.key(run) for run in sweep.runs]
+    done = read_rows(csv_path, header, set(keys))
+    write_rows_atomic(csv_path, header, list(done.values()))  # drops a truncated last line
+    todo = [(k, run) for k, run in zip(keys, sweep.runs, strict=True) if k not in done]
+    with csv_path.open("a", newline="") as fh:
+        fresh = _execute_all(sweep, todo, fh, workers, client, progress)
+    done.update(fresh)
+    rows = [done[k] for k in keys]
+    write_rows_atomic(csv_path, header, rows)
+    write_outputs(sweep, rows, out)
+    return [typed_row(row, sweep) for row in rows]
+
+
+def _execute_all(sweep: SweepSpec, todo, fh, workers, client, progress) -> dict:
+    """Run the missing specs; append each row to ``fh`` the moment it is known."""
+    from tqdm.auto import tqdm
+
+    writer = csv.writer(fh, lineterminator="\n")
+    fresh: dict[tuple[str, ...], list[str]] = {}
+    skipped = len(sweep.runs) - len(todo)
+    desc = f"sweep {sweep.name}" + (f" ({skipped} done before)" if skipped else "")
+    bar = tqdm(
+        total=len(todo), desc=desc, unit="run", disable=not (progress and todo), dynamic_ncols=True
+    )
+
+    def record(key, run, metrics: dict[str, str]) -> None:
+        row = sweep.key_row(run) + [metrics[c] for c in sweep.metric_columns]
+        writer.writerow(row)
+        fh.flush()
+        os.fsync(fh.fileno())
+        fresh[key] = row
+        bar.update()
+
+    try:
+        if not todo:
+            return fresh
+        if client is not None:
+            _run_dask(client, todo, record)
+        elif (workers or _all_cores()) <= 1 or len(todo) == 1:
+            for key, run in todo:
+                record(key, run, _run_metrics(run.spec))
+        else:
+            _run_pool(workers or _all_cores(), todo, record)
+    finally:
+        bar.close()
+    return fresh
+
+
+def _run_pool(workers: int, todo, record) -> None:
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+    try:
+        pending = {pool.submit(_run_metrics, run.spec): (key, run) for key, run in todo}
+        while pending:
+            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                key, run = pending.pop(fut)
+                record(key, run, fut.result())
+    except BaseException:  # Ctrl-C or a failed run: keep what is written, drop the queue
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+
+
+def _dask_client(address: str):
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UserError(
+            "--scheduler needs dask.distributed: pip install 'expt-mrta[cluster]'"
+        ) from None
+    try:
+        return Client(address, timeout="20s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UserError(f"cannot connect to the Dask scheduler at {address}: {exc}") from None
+
+
+def _run_dask(client, todo, record) -> None:
+    """Submit every run to the cluster; rows are recorded as futures complete."""
+    from distributed import as_completed
+
+    futures = client.map(_run_metrics, [run.spec for _, run in todo], pure=False)
+    origin = {fut.key: item for fut, item in zip(futures, todo, strict=True)}
+    try:
+        for fut in as_completed(futures):
+            key, run = origin[fut.key]
+            record(key, run, fut.result())
+    except BaseException:
+        client.cancel(futures)
+        raise
+
+
+# -- command line ------------------------------------------------------------------------------
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``mrta sweep SPEC.toml [--out DIR] [--workers N] [--scheduler ADDRESS]``."""
+    p = subparsers.add_parser(
+        "sweep",
+        help="run a parameter sweep file: runs.csv, summary.csv/json, sensitivity plots",
+        description="Run every combination of scenarios x allocators x cost models x parameter "
+        "values x seeds named in a sweep TOML file, on local processes or a Dask cluster. "
+        "Re-running into the same --out folder skips the runs already in runs.csv.",
+    )
+    p.add_argument("spec", help="sweep TOML file, or a bundled sweep name (e.g. delta_u)")
+    p.add_argument(
+        "--out", type=Path, default=None, help="output folder (default renders/sweeps/<name>/)"
+    )
+    p.add_argument(
+        "--workers", type=_positive_int, default=None, help="local processes (default: all cores)"
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (needs expt-mrta[cluster])",
+    )
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    return p
+
+
+def cmd_sweep(args) -> int:
+    """The ``mrta sweep`` command: run, then print where the outputs went."""
+    sweep = load_sweep(args.spec)
+    out = args.out or Path("renders") / "sweeps" / sweep.name
+    rows = run_sweep(
+        args.spec,
+        out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        progress=not getattr(args, "no_progress", False),
+    )
+    groups = len({tuple(r[c] for c in key_columns(sweep) if c != "seed") for r in rows})
+    print(
+        f"sweep {sweep.name}: {len(rows)} runs ({groups} combinations x {len(sweep.seeds)} seeds); "
+        f"wrote {out}/runs.csv, summary.csv, summary.json and "
+        f"{len(sweep.parameters)} sensitivity plot(s)"
+    )
+    return 0

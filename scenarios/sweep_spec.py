@@ -1,0 +1,359 @@
+"""Sweep files: strict validation and expansion into run specs (see :mod:`scenarios.sweep`).
+
+Every problem raises :class:`scenarios.loader.ScenarioError` with one line
+``file: key.path: problem`` (unknown keys get a did-you-mean), before anything runs. Parameter
+values are checked by the scenario loader itself: each combination is applied to the raw
+scenario document and validated like a scenario file, so a sweep can never run a scenario that
+``mrta validate`` would refuse.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import math
+import tomllib
+from dataclasses import dataclass, fields
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from allocation.costs import COST_MODELS
+from learning import ALLOCATORS
+from scenarios.loader import ScenarioError, _did_you_mean, parse_scenario, resolve
+from scenarios.protocol import OVERRIDABLE, RunSpec
+from sim.scenario import ExperienceSpec, LearningSpec, StreamSpec
+
+SECTIONS = {"stream": StreamSpec, "learning": LearningSpec, "experience": ExperienceSpec}
+PARAMETERS = {  # every overridable "section.key" and its default (which gives its type)
+    f"{s}.{f.name}": getattr(cls(), f.name)
+    for s, cls in SECTIONS.items()
+    if s in OVERRIDABLE
+    for f in fields(cls)
+}
+TOP_KEYS = {"sweep", "fixed", "grid", "points"}
+SWEEP_KEYS = {"name", "description", "scenarios", "allocators", "costs", "seeds"}
+MAX_RUNS = 100_000
+
+Value = bool | int | float
+
+
+@dataclass(frozen=True, slots=True)
+class SweepRun:
+    """One run of a sweep: the protocol's spec plus the labels its CSV row carries."""
+
+    spec: RunSpec
+    scenario: str  # as written in the sweep file
+    values: tuple[Value, ...]  # one per swept parameter
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A validated sweep: what to run, in spec order."""
+
+    name: str
+    source: str
+    sha256: str
+    scenarios: tuple[str, ...]
+    allocators: tuple[str, ...]
+    costs: tuple[str, ...]
+    seeds: tuple[int, ...]
+    fixed: tuple[tuple[str, Value], ...]
+    parameters: tuple[str, ...]
+    combos: tuple[tuple[Value, ...], ...]
+    runs: tuple[SweepRun, ...]
+    description: str = ""
+
+    def key_columns(self) -> list[str]:
+        """Columns that identify a run: scenario, allocator, cost, seed, swept parameters."""
+        return ["scenario", "allocator", "cost", "seed", *self.parameters]
+
+    def columns(self) -> list[str]:
+        """Every runs.csv column: the key columns, then the metric columns."""
+        from scenarios.sweep_report import METRIC_COLUMNS
+
+        return self.key_columns() + list(METRIC_COLUMNS)
+
+    @property
+    def metric_columns(self) -> tuple[str, ...]:
+        """The metric columns of runs.csv (:data:`scenarios.sweep_report.METRIC_COLUMNS`)."""
+        from scenarios.sweep_report import METRIC_COLUMNS
+
+        return METRIC_COLUMNS
+
+    def key_row(self, run: SweepRun) -> list[str]:
+        """The key columns of a run as CSV text."""
+        s = run.spec
+        return [run.scenario, s.allocator, s.cost, str(s.seed), *map(fmt_value, run.values)]
+
+    def key(self, run: SweepRun) -> tuple[str, ...]:
+        """The run's identity in runs.csv (what resume matches on)."""
+        return tuple(self.key_row(run))
+
+
+def _pairs(parameters: tuple[str, ...], combo: tuple[Value, ...]) -> tuple[tuple[str, Value], ...]:
+    return tuple(zip(parameters, combo, strict=True))
+
+
+def fmt_value(value: Value) -> str:
+    """CSV text of a parameter value: true/false, integers as such, floats round-trip exact."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    return repr(float(value))
+
+
+def bundled_sweeps() -> list[str]:
+    """Names of the example sweeps shipped in ``scenarios/data/sweeps``."""
+    data = resources.files("scenarios") / "data" / "sweeps"
+    if not data.is_dir():
+        return []
+    return sorted(p.name.removesuffix(".toml") for p in data.iterdir() if p.name.endswith(".toml"))
+
+
+def _resolve_sweep(name_or_path: str | Path) -> Path:
+    text = str(name_or_path)
+    path = Path(text)
+    if path.suffix == ".toml" or path.exists() or "/" in text:
+        return path
+    bundled = resources.files("scenarios") / "data" / "sweeps" / f"{text}.toml"
+    if bundled.is_file():
+        return Path(str(bundled))
+    hint = _did_you_mean(text, bundled_sweeps())
+    raise ScenarioError(f"{text}: no such sweep file or bundled sweep{hint}")
+
+
+def load_sweep(name_or_path: str | Path) -> SweepSpec:
+    """Read and validate a sweep file (a path, or a bundled sweep name)."""
+    path = _resolve_sweep(name_or_path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: file not found") from None
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read ({exc.strerror})") from None
+    try:
+        doc = tomllib.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ScenarioError(f"{path}: not a valid TOML file: {exc}") from None
+    return _Parser(path).parse(doc, hashlib.sha256(raw).hexdigest())
+
+
+class _Parser:
+    """Validation helpers raising ScenarioError('file: key.path: problem')."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def fail(self, where: str, problem: str):
+        raise ScenarioError(f"{self.path}: {where}: {problem}")
+
+    def keys(self, table: dict, where: str, allowed: set[str]) -> None:
+        for key in table:
+            if key not in allowed:
+                full = f"{where}.{key}" if where else key
+                self.fail(full, f"unknown key{_did_you_mean(key, sorted(allowed))}")
+
+    def names(self, table: dict, key: str, choices, default=None) -> tuple[str, ...]:
+        where = f"sweep.{key}"
+        val = table.get(key, default)
+        if val is None:
+            self.fail(where, "missing")
+        if isinstance(val, str):
+            val = [val]
+        if not isinstance(val, list) or not val or not all(isinstance(v, str) for v in val):
+            self.fail(where, "must be a non-empty list of strings")
+        if len(set(val)) != len(val):
+            self.fail(where, "lists a name twice")
+        for i, v in enumerate(val):
+            if choices is not None and v not in choices:
+                hint = _did_you_mean(v, choices)
+                self.fail(
+                    f"{where}[{i}]", f"unknown {key[:-1]} {v!r}{hint}; one of {sorted(choices)}"
+                )
+        return tuple(val)
+
+    def seeds(self, table: dict) -> tuple[int, ...]:
+        val = table.get("seeds")
+        if val is None:
+            self.fail("sweep.seeds", "missing (a count N for seeds 0..N-1, or a list)")
+        if isinstance(val, int) and not isinstance(val, bool):
+            if val < 1:
+                self.fail("sweep.seeds", f"need at least one seed, got {val}")
+            return tuple(range(val))
+        ok = (
+            isinstance(val, list)
+            and val
+            and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in val)
+        )
+        if not ok:
+            self.fail("sweep.seeds", "must be a count >= 1 or a non-empty list of integers >= 0")
+        if len(set(val)) != len(val):
+            self.fail("sweep.seeds", "lists a seed twice")
+        return tuple(val)
+
+    def value(self, where: str, param: str, val: Any) -> Value:
+        default = PARAMETERS[param]
+        if isinstance(default, bool):
+            if not isinstance(val, bool):
+                self.fail(where, f"must be true or false, got {val!r}")
+            return val
+        if isinstance(val, bool) or not isinstance(val, int | float):
+            self.fail(where, f"must be a number, got {val!r}")
+        if isinstance(default, int) and not isinstance(val, int):
+            self.fail(where, f"must be an integer, got {val!r}")
+        if not math.isfinite(val):
+            self.fail(where, f"must be finite, got {val}")
+        return val if isinstance(default, int) else float(val)
+
+    def params(self, table: Any, where: str) -> dict[str, Any]:
+        """Flatten ``{"experience.delta_u": v}`` or ``{"experience": {"delta_u": v}}``."""
+        if not isinstance(table, dict):
+            self.fail(where, "must be a table of parameter = value(s)")
+        flat: dict[str, Any] = {}
+        for key, val in table.items():
+            if isinstance(val, dict):
+                for sub, v in val.items():
+                    flat[f"{key}.{sub}"] = v
+            else:
+                flat[key] = val
+        for key in flat:
+            if key not in PARAMETERS:
+                section = key.partition(".")[0]
+                if section not in SECTIONS:
+                    hint = _did_you_mean(key, list(PARAMETERS))
+                    hint = hint or f" (sections: {', '.join(SECTIONS)})"
+                else:
+                    hint = _did_you_mean(key, list(PARAMETERS))
+                self.fail(f"{where}.{key}", f"unknown parameter{hint}")
+        return flat
+
+    def parse(self, doc: dict, sha256: str) -> SweepSpec:
+        self.keys(doc, "", TOP_KEYS)
+        head = doc.get("sweep")
+        if not isinstance(head, dict):
+            self.fail("sweep", "missing [sweep] table")
+        self.keys(head, "sweep", SWEEP_KEYS)
+        name = head.get("name", self.path.stem)
+        if not isinstance(name, str) or not name.strip() or "/" in name:
+            self.fail("sweep.name", "must be a non-empty string without '/'")
+        description = head.get("description", "")
+        if not isinstance(description, str):
+            self.fail("sweep.description", "must be a string")
+        scenarios = self.names(head, "scenarios", None)
+        allocators = self.names(head, "allocators", set(ALLOCATORS))
+        costs = self.names(head, "costs", set(COST_MODELS), default=["abstract"])
+        seeds = self.seeds(head)
+        fixed_raw = self.params(doc.get("fixed", {}), "fixed")
+        fixed = tuple((p, self.value(f"fixed.{p}", p, v)) for p, v in fixed_raw.items())
+        parameters, combos, origin = self.combos(doc, fixed_raw)
+        refs = [self.scenario_ref(i, s) for i, s in enumerate(scenarios)]
+        for label, (ref, raw) in zip(scenarios, refs, strict=True):
+            self.check_costs(label, ref, raw, costs)
+            self.check_values(label, raw, fixed, (), (), "fixed")
+            for combo, where in zip(combos, origin, strict=True):
+                self.check_values(label, raw, fixed, parameters, combo, where)
+        n_runs = len(scenarios) * len(allocators) * len(costs) * len(combos) * len(seeds)
+        if n_runs > MAX_RUNS:
+            self.fail("sweep", f"{n_runs:,} runs, more than the {MAX_RUNS:,} we accept")
+        runs = tuple(
+            SweepRun(RunSpec(ref, a, c, s, fixed + _pairs(parameters, combo)), label, combo)
+            for label, (ref, _) in zip(scenarios, refs, strict=True)
+            for a in allocators
+            for c in costs
+            for combo in combos
+            for s in seeds
+        )
+        return SweepSpec(
+            name, str(self.path), sha256, scenarios, allocators, costs, seeds, fixed,
+            parameters, combos, runs, description,
+        )  # fmt: skip
+
+    def combos(self, doc: dict, fixed: dict):
+        """(parameters, value combinations, where each came from) of [grid] or [[points]]."""
+        if "grid" in doc and "points" in doc:
+            self.fail("points", "use either [grid] or [[points]], not both")
+        if "points" in doc:
+            points = doc["points"]
+            if not isinstance(points, list) or not points:
+                self.fail("points", "must be a non-empty array of tables [[points]]")
+            flat = [self.params(p, f"points[{i}]") for i, p in enumerate(points)]
+            parameters = tuple(flat[0])
+            for i, p in enumerate(flat):
+                if set(p) != set(parameters):
+                    self.fail(
+                        f"points[{i}]", f"must set the same parameters as points[0]: {parameters}"
+                    )
+            combos = [
+                tuple(self.value(f"points[{i}].{k}", k, p[k]) for k in parameters)
+                for i, p in enumerate(flat)
+            ]
+            if len(set(combos)) != len(combos):
+                self.fail("points", "two points are equal")
+            origin = [f"points[{i}]" for i in range(len(combos))]
+        else:
+            grid = self.params(doc.get("grid", {}), "grid")
+            parameters = tuple(grid)
+            axes = []
+            for p, vals in grid.items():
+                if not isinstance(vals, list) or not vals:
+                    self.fail(f"grid.{p}", "must be a non-empty list of values")
+                vals = [self.value(f"grid.{p}[{i}]", p, v) for i, v in enumerate(vals)]
+                if len(set(vals)) != len(vals):
+                    self.fail(f"grid.{p}", "lists a value twice")
+                axes.append(vals)
+            combos = list(itertools.product(*axes))
+            origin = ["grid"] * len(combos)
+        for p in parameters:
+            if p in fixed:
+                self.fail(f"fixed.{p}", "is also swept; set it in one place only")
+        return parameters, tuple(combos), origin
+
+    def scenario_ref(self, i: int, label: str) -> tuple[str, dict]:
+        """(what RunSpec.scenario should hold, the raw scenario document)."""
+        candidate = Path(label)
+        if not candidate.is_absolute() and (self.path.parent / candidate).is_file():
+            candidate = self.path.parent / candidate
+        try:
+            path = resolve(candidate if candidate.is_file() else label)
+            raw = tomllib.loads(path.read_text())
+            parse_scenario(raw, source=str(path))
+        except ScenarioError as exc:
+            self.fail(f"sweep.scenarios[{i}]", str(exc))
+        except (OSError, tomllib.TOMLDecodeError) as exc:
+            self.fail(f"sweep.scenarios[{i}]", f"cannot read scenario {label!r}: {exc}")
+        ref = str(path.resolve()) if candidate.is_file() else label
+        return ref, raw
+
+    def check_costs(self, label: str, ref: str, raw: dict, costs: tuple[str, ...]) -> None:
+        for i, c in enumerate(costs):
+            if c != "abstract" and "spatial" not in raw:
+                self.fail(
+                    f"sweep.costs[{i}]",
+                    f"cost model {c!r} needs a spatial scenario; {label!r} has no [spatial] table",
+                )
+
+    def check_values(self, label, raw, fixed, parameters, combo, where) -> None:
+        """Validate one combination exactly as the loader validates a scenario file."""
+        doc = dict(raw)
+        origin = {}
+        for (path, value), table in [(f, "fixed") for f in fixed] + [
+            (pv, where) for pv in zip(parameters, combo, strict=True)
+        ]:
+            section, _, key = path.partition(".")
+            doc[section] = {**doc.get(section, {}), key: value}
+            origin[path] = table
+        marker = "\x00sweep"
+        try:
+            parse_scenario(doc, source=marker)
+        except ScenarioError as exc:
+            bad, _, problem = str(exc).removeprefix(f"{marker}: ").partition(": ")
+            if bad in origin:
+                self.fail(f"{origin[bad]}.{bad}", f"{problem} (scenario {label!r})")
+            values = [f"{p} = {fmt_value(v)}" for p, v in zip(parameters, combo, strict=True)]
+            at = f" at {', '.join(values)}" if values else ""
+            self.fail(
+                where if values else "fixed",
+                f"makes scenario {label!r} invalid{at}: {bad}: {problem}",
+            )

@@ -28,6 +28,7 @@ from allocation.auction import solve_priority_assignment
 from allocation.costs import make_cost_model
 from learning.experience import ExperienceModel
 from sim import make_world
+from sim.recording import TrajectoryRecorder
 from sim.scenario import Scenario
 from sim.tasks import Batch, generate_stream
 
@@ -86,12 +87,19 @@ class AllocationRounds:
         self.capable = sc.capability_matrix()
         self.world = make_world(sc)
         self.cost_model = make_cost_model(cost, sc, getattr(self.world, "planner", None))
+        self.recorder_ = None
 
     def _start(self, run_seed: int, sets: str | None = None) -> None:
         """Draw the stream of ``run_seed`` and stand before its first round."""
         stream_ss, world_ss, _ = np.random.SeedSequence(run_seed).spawn(3)
         self.stream_ = generate_stream(self.scenario, np.random.default_rng(stream_ss))
         self.world.reset(np.random.default_rng(world_ss))
+        if self.render_mode == "rgb_array" and self.scenario.spatial is not None:
+            sp, sc = self.scenario.spatial, self.scenario
+            self.recorder_ = TrajectoryRecorder(
+                (sp.width_m, sp.height_m), sp.obstacles, sc.task_types, [r.name for r in sc.robots]
+            )
+            self.world.recorder = self.recorder_
         spec = self.scenario.experience
         self.experience_ = ExperienceModel(
             self.capable, type(spec)(delta_v=spec.delta_v, delta_u=0.0)
@@ -128,7 +136,12 @@ class AllocationRounds:
         won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
         self.world.apply(batch, assignment, won_bid)
         self.busy_low_[assignment[won]] = ~batch.high[won]
-        self.world.advance(self.scenario.stream.announce_interval_s)
+        done = self.world.advance(self.scenario.stream.announce_interval_s)
+        if self.recorder_ is not None:
+            self.recorder_.announce(state.time_s, batch.ids, batch.types, batch.high, batch.sites)
+            self.recorder_.allocate(state.time_s, batch.ids, assignment)
+            for c in done:
+                self.recorder_.done(c.task_id, c.t_done_s)
         self.last_assignment_ = assignment
         terminated = not self._next_batch()
         return RoundOutcome(batch, assignment, bid, busy_low), terminated
@@ -138,12 +151,17 @@ class AllocationRounds:
         previous = self.batch_
         for position, batch in self.batches_:
             if previous is not None and position != self.set_position_:
-                self.world.drain()
+                self._drain()
                 self.busy_low_[:] = False
             self.batch_, self.set_position_ = batch, position
             return True
-        self.world.drain()
+        self._drain()
         return False
+
+    def _drain(self) -> None:
+        for c in self.world.drain():
+            if self.recorder_ is not None:
+                self.recorder_.done(c.task_id, c.t_done_s)
 
     def _slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(type, high, valid) of the current batch, padded to ``MAX_SLOTS``."""

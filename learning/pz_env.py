@@ -143,15 +143,11 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
         return obs, rew, terminations, truncations, infos
 
     def render(self):
-        """An RGB frame from ``sim.render_env.env_frame`` if that module exists, else None."""
+        """The current frame as an (H, W, 3) uint8 array (the GIF's frames in spatial worlds)."""
         if self.render_mode != "rgb_array":
             return None
-        try:
-            from sim.render_env import env_frame
-        except ModuleNotFoundError as exc:
-            if exc.name != "sim.render_env":
-                raise
-            return None
+        from sim.render_env import env_frame
+
         return env_frame(self)
 
     def close(self) -> None:

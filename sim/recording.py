@@ -69,6 +69,9 @@ class TrajectoryRecorder:
         self._latest: dict[int, int] = {}  # task id -> row of its latest announcement
         self._next_t = -np.inf
 
+    def has_poses(self) -> bool:
+        return bool(self._times)
+
     def poses(self, t_s: float, positions, headings, states) -> None:
         """Record robot poses if ``every_s`` has passed since the last record."""
         if t_s + 1e-9 < self._next_t:

@@ -91,3 +91,29 @@ def test_reward_follows_spec(env, paper):
         reward
         == p.reward_high * info["allocated"]["high"] + p.reward_low * info["allocated"]["low"]
     )
+
+
+def test_rgb_array_abstract_status_board():
+    env = gymnasium.make("mrta/Allocation-v0", scenario="paper", render_mode="rgb_array")
+    obs, _ = env.reset(seed=0)
+    first = env.render()
+    env.step(market_policy(env.unwrapped, obs))
+    second = env.render()
+    assert first.shape == (600, 600, 3) and first.dtype == np.uint8
+    assert not np.array_equal(first, second)  # robots became busy
+
+
+def test_rgb_array_spatial_is_the_gif_frame():
+    from sim.render import render_frame
+
+    env = gymnasium.make(
+        "mrta/Allocation-v0", scenario="paper_spatial", cost="distance", render_mode="rgb_array"
+    )
+    obs, _ = env.reset(seed=0)
+    for _ in range(3):
+        obs, *_ = env.step(market_policy(env.unwrapped, obs))
+    frame = env.render()
+    traj = env.unwrapped.recorder_.finish()
+    assert traj.task_id.size > 0 and (traj.task_robot >= 0).any()
+    assert np.array_equal(frame, render_frame(traj, float(traj.times_s[-1])))
+    assert frame.shape == (600, 600, 3)

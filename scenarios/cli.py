@@ -201,6 +201,22 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_soak(args) -> int:
+    import json
+
+    from scenarios.soak import soak
+
+    result = soak(
+        args.scenario, args.tasks, args.allocator, args.cost, args.seed, progress=not args.json
+    )
+    if args.json:
+        print(json.dumps(result))
+    else:
+        for key, value in result.items():
+            print(f"{key:>24}: {value:,.4g}" if isinstance(value, float) else f"{key:>24}: {value}")
+    return 0
+
+
 def cmd_sweep(args) -> int:
     from scenarios.sweep import cmd_sweep as run
 
@@ -216,6 +232,7 @@ COMMANDS = {
     "render": cmd_render,
     "bench": cmd_bench,
     "sweep": cmd_sweep,
+    "soak": cmd_soak,
 }
 
 

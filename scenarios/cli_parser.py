@@ -202,6 +202,24 @@ def build_parser() -> argparse.ArgumentParser:
         default=["sim", "gif", "alloc"],
         help="comma-separated parts (default sim,gif,alloc)",
     )
+    k = sub.add_parser(
+        "soak",
+        help="a long spatial run: memory, overlaps, stuck robots and invariants over 100k tasks",
+        description="Play a spatial scenario until --tasks tasks were announced, keeping counts "
+        "only, and report peak RSS at 10%% and 100%% of the run, the deepest overlap, failed "
+        "tasks and wall time. Invariants are checked every round; a violation stops it (exit 1).",
+    )
+    k.add_argument(
+        "--scenario", default="large", help="spatial scenario (default large: 100 robots)"
+    )
+    k.add_argument(
+        "--tasks", type=_positive_int, default=100_000, help="tasks to announce (default 100000)"
+    )
+    k.add_argument("--allocator", choices=sorted(ALLOCATORS), default="market")
+    k.add_argument("--cost", choices=["abstract", "distance", "time"], default="distance")
+    k.add_argument("--seed", type=_non_negative_int, default=0)
+    k.add_argument("--json", action="store_true", help="print one JSON object")
+
     from scenarios.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub)

@@ -70,6 +70,7 @@ class DriveSpec:
     wheel_radius_m: float = 0.08
     max_wheel_speed_radps: float = 18.75  # 1.5 m/s top speed with 0.08 m wheels
     max_wheel_accel_radps2: float = 25.0
+    traction_mps2: float = 6.0  # motor/tyre force limit per kg: how hard a robot can push
 
     @property
     def max_speed_mps(self) -> float:
@@ -90,6 +91,9 @@ class SpatialSpec:
     arrive_tol_m: float = 0.3
     grid_res_m: float = 0.25
     stuck_timeout_s: float = 20.0
+    clearance_m: float = 0.1  # planned paths keep this much space beyond the robot radius
+    max_recoveries: int = 3  # back-off-and-replan attempts before a task is reported failed
+    collision_slop_m: float = 0.005  # pymunk's allowed overlap, in metres
 
 
 @dataclass(frozen=True, slots=True)

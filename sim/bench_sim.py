@@ -1,0 +1,136 @@
+"""Speed of the pymunk world: our whole loop against bare ``space.step`` on the same bodies.
+
+For each size a synthetic arena is built (about 13 m^2 per robot, one box obstacle per ten
+robots, task sites scattered in the free space). Every robot is kept busy: whenever one is free it
+is sent to a random site, as an allocator would, so the measured loop is physics plus control,
+planning, task bookkeeping, contact sampling and trajectory recording. The bare loop then steps the
+very same space (same bodies, joints and contacts) with nothing around it. Both are timed in the
+same process, one after the other, so ``bare_ratio`` is a ratio measured in one run.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from sim.physics import PymunkWorld
+from sim.recording import TrajectoryRecorder
+from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.tasks import Batch
+
+DEFAULT_SIM_S = {10: 600.0, 100: 120.0, 1000: 12.0}  # a second or two of wall time each
+
+
+def bench_scenario(
+    n: int, rng: np.random.Generator, dt_s: float = 1.0 / 60.0, control_hz: float = 10.0
+) -> Scenario:
+    """A square arena for ``n`` robots on a start grid, with box obstacles and task sites."""
+    side = max(20.0, float(np.ceil(np.sqrt(13.0 * n))))
+    cols = int(np.ceil(np.sqrt(n)))
+    pitch = side / (cols + 1)
+    starts = [((k % cols + 1) * pitch, (k // cols + 1) * pitch) for k in range(n)]
+    obstacles = []
+    for k in range(max(1, n // 10)):
+        cx, cy = (k % cols + 1.5) * pitch, (k // cols + 1.5) * pitch
+        if cx < side - pitch and cy < side - pitch:
+            h = 0.25 * pitch
+            obstacles.append(
+                ((cx - h, cy - h), (cx + h, cy - h), (cx + h, cy + h), (cx - h, cy + h))
+            )
+    spatial = SpatialSpec(
+        side, side, tuple(obstacles), ((),), DriveSpec(), dt_s=dt_s, control_hz=control_hz
+    )
+    from sim.planning import GridPlanner
+
+    planner = GridPlanner(spatial)
+    cand = rng.uniform(1.0, side - 1.0, size=(4 * max(20, n // 2), 2))
+    sites = cand[planner.free(cand)][: max(20, n // 2)]
+    spatial = SpatialSpec(
+        side,
+        side,
+        tuple(obstacles),
+        (tuple(map(tuple, sites.tolist())),),
+        DriveSpec(),
+        dt_s=dt_s,
+        control_hz=control_hz,
+    )
+    robots = tuple(RobotSpec(f"R{k + 1}", (0,), starts[k]) for k in range(n))
+    return Scenario(f"bench{n}", ("T",), robots, ((1.0,),) * n, (2.0,), spatial=spatial)
+
+
+def _run(world: PymunkWorld, sim_s: float, rng: np.random.Generator) -> tuple[int, float]:
+    """Keep every robot busy for ``sim_s`` simulated seconds; (physics steps, wall seconds)."""
+    sites = np.asarray(world.spatial.sites[0], dtype=float)
+    next_id = 0
+    steps0 = world.steps_
+    wall0 = time.perf_counter()
+    while world.time_s < sim_s - 1e-9:
+        free = np.flatnonzero(world.task_ < 0)
+        if free.size:
+            ids = np.arange(next_id, next_id + free.size)
+            next_id += free.size
+            pick = sites[rng.integers(0, len(sites), size=free.size)]
+            batch = Batch(0, 0, ids, np.zeros(free.size, int), np.zeros(free.size, bool), pick)
+            world.apply(batch, free, np.zeros(free.size))
+        world.advance(1.0)
+    return world.steps_ - steps0, time.perf_counter() - wall0
+
+
+def bench_sim(
+    sizes: tuple[int, ...] = (10, 100, 1000),
+    sim_seconds: float | dict[int, float] | None = None,
+    rng: np.random.Generator | None = None,
+    control_hz: float = 10.0,
+) -> dict[str, dict[str, float]]:
+    """Measure the pymunk world's speed for each robot count.
+
+    Args:
+        sizes: robot counts.
+        sim_seconds: simulated seconds per size (one number for all, a dict, or None for
+            ``DEFAULT_SIM_S``).
+        rng: task sites and assignments; ``default_rng(0)`` if None.
+        control_hz: control rate (physics runs at 60 Hz).
+
+    Returns:
+        ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s"}}``: physics steps
+        of the full loop per wall second, simulated / wall seconds, full-loop time per step over
+        bare ``space.step`` time per step, and the bare loop's steps per second.
+    """
+    rng = np.random.default_rng(0) if rng is None else rng
+    out = {}
+    for n in sizes:
+        if sim_seconds is None:
+            sim_s = DEFAULT_SIM_S.get(n, max(10.0, 12000.0 / n))
+        else:
+            sim_s = sim_seconds[n] if isinstance(sim_seconds, dict) else float(sim_seconds)
+        scenario = bench_scenario(n, rng, control_hz=control_hz)
+        world = PymunkWorld(scenario)
+        sp = scenario.spatial
+        world.recorder = TrajectoryRecorder(
+            (sp.width_m, sp.height_m),
+            sp.obstacles,
+            scenario.task_types,
+            [r.name for r in scenario.robots],
+        )
+        world.reset(rng)
+        _run(world, min(2.0, sim_s), rng)  # warm-up: first paths and distance fields
+        steps, wall = _run(world, world.time_s + sim_s, rng)
+        bare_n = max(60, steps // 4)
+        step, dt = world.space.step, world.dt_s
+        t0 = time.perf_counter()
+        for _ in range(bare_n):
+            step(dt)
+        bare = (time.perf_counter() - t0) / bare_n
+        out[str(n)] = {
+            "steps_per_s": steps / wall,
+            "rtf": steps * dt / wall,
+            "bare_ratio": (wall / steps) / bare,
+            "bare_steps_per_s": 1.0 / bare,
+        }
+    return out
+
+
+if __name__ == "__main__":
+    for size, row in bench_sim().items():
+        print(size, {k: round(v, 2) for k, v in row.items()})

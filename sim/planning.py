@@ -1,0 +1,336 @@
+"""Path planning in the arena: exact any-angle shortest paths around inflated obstacles.
+
+Every obstacle is a convex polygon. Grown by the robot radius plus a clearance, it becomes a
+larger convex polygon (edges offset outward, sharp corners bevelled), so the free space of a robot
+centre is a polygonal domain. Shortest paths in such a domain run straight between polygon
+vertices: the planner keeps the visibility graph of those vertices and its all-pairs shortest
+paths (``scipy.sparse.csgraph``), and for each goal point the geodesic distance from every vertex
+to it (task sites are a finite set of points, so these fields are cached). A query tests the
+straight line first; only if it is blocked it tests the vertices in order of their lower bound
+|p - u| + D(u), a few at a time, and the first visible one gives the exact geodesic. In open space
+the planned distance *is* the straight line, around obstacles it is never shorter. An occupancy
+grid at ``grid_res_m`` is kept for rendering and debugging only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import shortest_path
+
+from sim.scenario import SpatialSpec
+
+_TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
+_SNAP_M = 1e-6  # how far past a boundary a point pushed out of an obstacle lands
+_CHUNK = 1 << 20  # (pair, edge) entries per vectorised visibility chunk
+_FIRST_BATCH = 8  # vertices tested per query in the first round (then 4x more each round)
+
+
+def halfplanes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Outward unit normals (E, 2) and offsets (E,) of a convex CCW polygon: inside is n.x < c."""
+    edge = np.roll(poly, -1, axis=0) - poly
+    normal = np.column_stack([edge[:, 1], -edge[:, 0]])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return normal, np.einsum("ij,ij->i", normal, poly)
+
+
+def inflate(poly: np.ndarray, d_m: float) -> np.ndarray:
+    """Grow a convex CCW polygon by ``d_m``: a convex polygon containing its Minkowski sum with
+    a disc. Corners sharper than 90 degrees get a bevel tangent to the rounded corner."""
+    if d_m <= 0:
+        return np.array(poly, dtype=float)
+    normal, offset = halfplanes(poly)
+    lines_n, lines_c = [], []
+    for i in range(len(poly)):
+        prev = normal[i - 1]
+        if prev @ normal[i] < 0.0:
+            bis = prev + normal[i]
+            bis /= np.linalg.norm(bis)
+            lines_n.append(bis)
+            lines_c.append(bis @ poly[i] + d_m)
+        lines_n.append(normal[i])
+        lines_c.append(offset[i] + d_m)
+    n, c = np.array(lines_n), np.array(lines_c)
+    n2, c2 = np.roll(n, 1, axis=0), np.roll(c, 1)
+    det = n2[:, 0] * n[:, 1] - n2[:, 1] * n[:, 0]
+    x = (c2 * n[:, 1] - c * n2[:, 1]) / det
+    y = (n2[:, 0] * c - n[:, 0] * c2) / det
+    return np.column_stack([x, y])
+
+
+def polygon_signed_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Signed distance (m) from each point (n, 2) to a convex CCW polygon: < 0 inside."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    a, b = poly, np.roll(poly, -1, axis=0)
+    ab = b - a
+    t = np.einsum("pej,ej->pe", pts[:, None, :] - a[None], ab) / np.einsum("ej,ej->e", ab, ab)
+    closest = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
+    dist = np.linalg.norm(pts[:, None, :] - closest, axis=2).min(axis=1)
+    normal, offset = halfplanes(poly)
+    inside = (pts @ normal.T - offset < 0).all(axis=1)
+    return np.where(inside, -dist, dist)
+
+
+class GridPlanner:
+    """Shortest paths for a robot centre among the inflated obstacles of a spatial scenario.
+
+    Args:
+        spatial: the arena; obstacles are grown by ``drive.radius_m + clearance_m``.
+    """
+
+    def __init__(self, spatial: SpatialSpec) -> None:
+        self.spatial = spatial
+        self.inflate_m = spatial.drive.radius_m + spatial.clearance_m
+        lo = self.inflate_m
+        self.lo_ = np.array([lo, lo])
+        self.hi_ = np.array([spatial.width_m - lo, spatial.height_m - lo])
+        polys = [inflate(np.asarray(p, dtype=float), self.inflate_m) for p in spatial.obstacles]
+        self.polygons_ = polys
+        n_edges = max((len(p) for p in polys), default=1)
+        self.normals_ = np.zeros((len(polys), n_edges, 2))
+        self.offsets_ = np.ones((len(polys), n_edges))  # padding edges: 0 < 1 always holds
+        self.real_ = np.zeros((len(polys), n_edges), dtype=bool)
+        for k, p in enumerate(polys):
+            n, c = halfplanes(p)
+            self.normals_[k, : len(p)], self.offsets_[k, : len(p)] = n, c
+            self.real_[k, : len(p)] = True
+        self.bb_lo_ = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
+        self.bb_hi_ = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
+        verts = np.concatenate(polys) if polys else np.zeros((0, 2))
+        self.vertices_ = verts[self.free(verts)]
+        self._build_graph()
+        self._fields: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
+        self._occupancy: np.ndarray | None = None
+
+    def _build_graph(self) -> None:
+        """All-pairs geodesics between the vertices: ``apsp_`` (V, V) m, ``pred_`` (V, V)."""
+        v = self.vertices_
+        nv = len(v)
+        i, j = np.triu_indices(nv, k=1)
+        ok = ~self.blocked(v[i], v[j])
+        i, j = i[ok], j[ok]
+        w = np.linalg.norm(v[i] - v[j], axis=1) + 1e-12  # coincident vertices stay joined
+        graph = coo_matrix((w, (i, j)), shape=(nv, nv)).tocsr()
+        self.apsp_, self.pred_ = shortest_path(
+            graph, method="D", directed=False, return_predecessors=True
+        )
+
+    def free(self, xy: np.ndarray) -> np.ndarray:
+        """(n,) True where a robot centre may be: in the arena and clear of every obstacle."""
+        pts = np.asarray(xy, dtype=float).reshape(-1, 2)
+        inside = ((pts >= self.lo_ - _TOL_M) & (pts <= self.hi_ + _TOL_M)).all(axis=1)
+        if len(self.polygons_):
+            proj = np.einsum("nj,pej->npe", pts, self.normals_) - self.offsets_[None]
+            inside &= ~(proj < -_TOL_M).all(axis=2).any(axis=1)
+        return inside
+
+    def reachable(self, xy) -> bool:
+        """True if a robot centre can stand at ``xy`` (in the arena, clear of obstacles)."""
+        return bool(self.free(np.asarray(xy, dtype=float))[0])
+
+    @property
+    def occupancy(self) -> np.ndarray:
+        """(ny, nx) bool grid at ``grid_res_m``: True where a robot centre cannot be."""
+        if self._occupancy is None:
+            res = self.spatial.grid_res_m
+            xs = np.arange(res / 2, self.spatial.width_m, res)
+            ys = np.arange(res / 2, self.spatial.height_m, res)
+            gx, gy = np.meshgrid(xs, ys)
+            free = self.free(np.column_stack([gx.ravel(), gy.ravel()]))
+            self._occupancy = ~free.reshape(gy.shape)
+        return self._occupancy
+
+    def blocked(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(S,) True where segment a[s] -> b[s] passes through the interior of an obstacle.
+
+        Cyrus-Beck clipping of each segment against each inflated polygon whose bounding box it
+        meets; touching a boundary or running along an edge is not blocked.
+        """
+        a = np.asarray(a, dtype=float).reshape(-1, 2)
+        b = np.asarray(b, dtype=float).reshape(-1, 2)
+        out = np.zeros(len(a), dtype=bool)
+        if not len(self.polygons_) or not len(a):
+            return out
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        step = max(1, _CHUNK // (len(self.polygons_) * self.normals_.shape[1]))
+        for s0 in range(0, len(a), step):
+            sl = slice(s0, s0 + step)
+            meet = (lo[sl, None] < self.bb_hi_[None]).all(axis=2)
+            meet &= (hi[sl, None] > self.bb_lo_[None]).all(axis=2)
+            si, pi = np.nonzero(meet)
+            if not si.size:
+                continue
+            si += s0
+            n = self.normals_[pi]
+            start = a[si]
+            num = self.offsets_[pi] - _TOL_M - np.einsum("kej,kj->ke", n, start)
+            den = np.einsum("kej,kj->ke", n, b[si] - start)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = num / den
+            t_hi = np.where(den > 0, ratio, np.inf).min(axis=1, initial=1.0)
+            t_lo = np.where(den < 0, ratio, -np.inf).max(axis=1, initial=0.0)
+            never = ((den == 0) & (num <= 0)).any(axis=1)
+            out[si[(t_lo < t_hi) & ~never]] = True
+        return out
+
+    def snap(self, xy: np.ndarray) -> np.ndarray:
+        """Push points (n, 2) that lie inside an inflated obstacle or the wall margin out to the
+        nearest free boundary (robots pressed against an obstacle can be there)."""
+        pts = np.array(xy, dtype=float).reshape(-1, 2)
+        for _ in range(4):
+            bad = np.flatnonzero(~self.free(pts))
+            if not bad.size:
+                break
+            for k in bad.tolist():
+                p = np.clip(pts[k], self.lo_, self.hi_)
+                if len(self.polygons_):
+                    proj = self.normals_ @ p - self.offsets_
+                    for q in np.flatnonzero((proj < -_TOL_M).all(axis=1)).tolist():
+                        e = int(np.argmax(np.where(self.real_[q], proj[q], -np.inf)))
+                        p = p + self.normals_[q, e] * (_SNAP_M - proj[q, e])
+                pts[k] = p
+        return pts
+
+    def _field(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Geodesic distance (V,) from each vertex to ``goal`` and the last vertex before the goal
+        on that path (-1 if unreachable); cached per goal point."""
+        key = (float(goal[0]), float(goal[1]))
+        hit = self._fields.get(key)
+        if hit is not None:
+            return hit
+        v = self.vertices_
+        seen = np.flatnonzero(~self.blocked(np.broadcast_to(goal, v.shape), v))
+        if seen.size:
+            total = self.apsp_[:, seen] + np.linalg.norm(v[seen] - goal, axis=1)[None]
+            k = np.argmin(total, axis=1)
+            dist = total[np.arange(len(v)), k]
+            last = np.where(np.isfinite(dist), seen[k], -1)
+        else:
+            dist, last = np.full(len(v), np.inf), np.full(len(v), -1)
+        self._fields[key] = (dist, last)
+        return dist, last
+
+    def _first_visible(
+        self, pts: np.ndarray, rows: np.ndarray, lower: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Cheapest visible vertex per query.
+
+        Args:
+            pts: (m, 2) query points.
+            rows: (n,) point of each query.
+            lower: (n, V) cost through each vertex if it is visible from the point.
+
+        Returns:
+            (n,) cost through the first visible vertex in order of cost (``inf`` if none), and
+            (n,) that vertex (-1 if none).
+        """
+        n, nv = lower.shape
+        order = np.argsort(lower, axis=1)
+        cost, via = np.full(n, np.inf), np.full(n, -1)
+        todo, start, size = np.arange(n), 0, _FIRST_BATCH
+        while todo.size and start < nv:
+            cand = order[todo, start : start + size]
+            bound = lower[todo[:, None], cand]
+            ok = np.isfinite(bound)
+            pair = np.unique(rows[todo][:, None] * nv + cand, return_inverse=True)
+            keys, inv = pair[0], pair[1].reshape(cand.shape)
+            seen = ~self.blocked(pts[keys // nv], self.vertices_[keys % nv])
+            vis = seen[inv] & ok
+            hit = vis.any(axis=1)
+            first = np.argmax(vis, axis=1)[hit]
+            cost[todo[hit]] = bound[hit, first]
+            via[todo[hit]] = cand[hit, first]
+            todo = todo[~hit & ok[:, -1]]
+            start, size = start + size, size * 4
+        return cost, via
+
+    def distances(self, positions: np.ndarray, sites: np.ndarray) -> np.ndarray:
+        """Planned path length (m) from each position (m, 2) to each site (k, 2); ``inf`` where
+        no path exists. Never shorter than the straight line; equal to it in open space."""
+        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+        sites = np.asarray(sites, dtype=float).reshape(-1, 2)
+        if not len(sites) or not len(pos):
+            return np.full((len(pos), len(sites)), np.inf)
+        snapped = self.snap(pos)
+        extra = np.linalg.norm(pos - snapped, axis=1)
+        uniq, inv = np.unique(sites, axis=0, return_inverse=True)
+        goals = self.snap(uniq)
+        goal_extra = np.linalg.norm(uniq - goals, axis=1)
+        a = np.repeat(snapped, len(goals), axis=0)
+        b = np.tile(goals, (len(snapped), 1))
+        direct = np.linalg.norm(a - b, axis=1)
+        direct[self.blocked(a, b)] = np.inf
+        best = direct.reshape(len(pos), len(goals))
+        r, g = np.nonzero(~np.isfinite(best))
+        if r.size and len(self.vertices_):
+            fields = np.array([self._field(goal)[0] for goal in goals])
+            to_vertex = np.linalg.norm(snapped[:, None] - self.vertices_[None], axis=2)
+            best[r, g] = self._first_visible(snapped, r, to_vertex[r] + fields[g])[0]
+        best = best + extra[:, None] + goal_extra[None]
+        return best[:, inv.ravel()]
+
+    def path(self, start_xy, goal_xy) -> np.ndarray:
+        """Waypoints (P, 2) from ``start_xy`` to ``goal_xy``, both included; (0, 2) if no path."""
+        start = np.asarray(start_xy, dtype=float).reshape(2)
+        goal = np.asarray(goal_xy, dtype=float).reshape(2)
+        s, g = self.snap(np.stack([start, goal]))
+        pts = [start] if np.linalg.norm(s - start) > 0 else []
+        pts.append(s)
+        if self.blocked(s, g)[0]:
+            if not len(self.vertices_):
+                return np.zeros((0, 2))
+            dist, last = self._field(g)
+            lower = np.linalg.norm(self.vertices_ - s, axis=1) + dist
+            cost, via = self._first_visible(s[None], np.zeros(1, dtype=int), lower[None])
+            if not np.isfinite(cost[0]):
+                return np.zeros((0, 2))
+            u = int(via[0])
+            chain = [int(last[u])]
+            while chain[-1] != u:
+                chain.append(int(self.pred_[u, chain[-1]]))
+            pts.extend(self.vertices_[chain[::-1]])
+        pts.append(g)
+        if np.linalg.norm(goal - g) > 0:
+            pts.append(goal)
+        return np.array(pts)
+
+    def side_step(
+        self, xy: complex, other: complex, travel: complex, step_m: float, avoid: np.ndarray
+    ) -> np.ndarray:
+        """A short path that takes a robot at ``xy`` out of the way of a robot at ``other``
+        moving along the unit direction ``travel`` (points as x + iy): sideways, away from the
+        other robot's line, else to the other side, else straight ahead; (0, 2) if none is free.
+        The end point keeps ``step_m / 2`` from every point of ``avoid`` (other robots).
+        """
+        lateral = 1j * travel
+        side = 1.0 if ((xy - other) * lateral.conj()).real >= 0 else -1.0
+        for offset in (side * lateral, -side * lateral, travel):
+            path = self._hop(xy, xy + step_m * offset, avoid, step_m / 2)
+            if len(path):
+                return path
+        return np.zeros((0, 2))
+
+    def detour(
+        self, xy: complex, around: complex, travel: complex, offset_m: float, goal, avoid
+    ) -> np.ndarray:
+        """A path from ``xy`` to ``goal`` that first passes beside ``around`` (a robot that
+        will not move), ``offset_m`` to its side of the direction ``travel``; (0, 2) if neither
+        side is free of obstacles and of the points ``avoid``."""
+        lateral = 1j * travel
+        side = 1.0 if ((xy - around) * lateral.conj()).real >= 0 else -1.0
+        for sign in (side, -side):
+            hop = self._hop(xy, around + sign * offset_m * lateral, avoid, offset_m / 2)
+            if len(hop):
+                rest = self.path(hop[-1], goal)
+                if len(rest):
+                    return np.concatenate([hop[:1], rest])
+        return np.zeros((0, 2))
+
+    def _hop(self, a: complex, b: complex, avoid: np.ndarray, keep_m: float) -> np.ndarray:
+        """[a, b] as a (2, 2) path if b is free, seen from a and ``keep_m`` from ``avoid``."""
+        start, end = np.array([a.real, a.imag]), np.array([b.real, b.imag])
+        if not self.free(end)[0] or self.blocked(start, end)[0]:
+            return np.zeros((0, 2))
+        if len(avoid) and np.abs(np.asarray(avoid) - b).min() < keep_m:
+            return np.zeros((0, 2))
+        return np.stack([start, end])

@@ -1,0 +1,164 @@
+"""The [spatial] table: bundled layouts load, bad layouts fail at load time naming the key."""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from scenarios.loader import ScenarioError, load_scenario, parse_scenario
+from sim.physics import PymunkWorld
+from sim.tasks import Batch
+
+SPATIAL = ["paper_spatial", "warehouse", "large"]
+
+
+def doc(name: str = "paper_spatial") -> dict:
+    text = (resources.files("scenarios") / "data" / f"{name}.toml").read_text()
+    return tomllib.loads(text)
+
+
+def fails(d: dict, *needles: str) -> str:
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(d, source="x.toml")
+    msg = str(info.value)
+    assert "\n" not in msg
+    for needle in needles:
+        assert needle in msg, msg
+    return msg
+
+
+@pytest.mark.parametrize("name", SPATIAL)
+def test_bundled_spatial_scenarios_load_and_drive(name):
+    sc = load_scenario(name)
+    sp = sc.spatial
+    assert sp is not None and all(r.start_xy is not None for r in sc.robots)
+    assert len(sp.sites) == sc.n_types and all(len(s) >= 2 for s in sp.sites)
+    world = PymunkWorld(sc)
+    capable = sc.capability_matrix()
+    k = min(3, sc.n_types)
+    robots = [int(np.flatnonzero(capable[:, i])[0]) for i in range(k)]
+    if len(set(robots)) == k:
+        sites = np.array([sp.sites[i][0] for i in range(k)], dtype=float)
+        batch = Batch(0, 0, np.arange(k), np.arange(k), np.zeros(k, bool), sites)
+        world.apply(batch, np.array(robots), np.ones(k))
+    world.advance(2.0)
+    assert np.isfinite(world.snapshot().positions).all()
+
+
+def test_paper_spatial_keeps_the_paper_robots_and_stream():
+    paper, spatial = load_scenario("paper"), load_scenario("paper_spatial")
+    assert [r.capabilities for r in paper.robots] == [r.capabilities for r in spatial.robots]
+    assert paper.cost == spatial.cost and paper.stream == spatial.stream
+
+
+def test_site_inside_an_obstacle():
+    d = doc()
+    d["spatial"]["sites"]["T1"][0] = [6.0, 5.5]
+    fails(d, "x.toml: spatial.sites.T1[0]:", "inside spatial.obstacles[0]")
+
+
+def test_site_too_close_to_an_obstacle_for_a_robot_centre():
+    d = doc()
+    d["spatial"]["sites"]["T2"][1] = [8.2, 5.5]
+    fails(d, "spatial.sites.T2[1]:", "spatial.obstacles[0]", "no robot centre")
+
+
+def test_site_outside_the_arena():
+    d = doc()
+    d["spatial"]["sites"]["T3"][0] = [25.0, 5.0]
+    fails(d, "spatial.sites.T3[0]:", "outside the arena")
+
+
+def test_robot_starting_in_the_wall():
+    d = doc()
+    d["robots"][0]["start"] = [0.1, 10.0]
+    fails(d, "robots[0].start:", "outside the arena or into a wall")
+
+
+def test_robot_starting_inside_an_obstacle():
+    d = doc()
+    d["robots"][2]["start"] = [6.0, 6.0]
+    fails(d, "robots[2].start:", "spatial.obstacles[0]")
+
+
+def test_overlapping_robots():
+    d = doc()
+    d["robots"][1]["start"] = [1.8, 10.0]
+    fails(d, "robots[1].start:", "overlaps robots[0] (R1)")
+
+
+def test_robot_without_a_start():
+    d = doc()
+    del d["robots"][4]["start"]
+    fails(d, "robots[4].start:", "missing")
+
+
+def test_site_walled_off_from_every_capable_robot():
+    d = doc()
+    d["spatial"]["obstacles"] += [
+        [[0.0, 16.5], [4.0, 16.5], [4.0, 17.0], [0.0, 17.0]],
+        [[3.5, 16.5], [4.0, 16.5], [4.0, 20.0], [3.5, 20.0]],
+    ]
+    fails(d, "spatial.sites.T2[1]:", "unreachable from robots[")
+
+
+def test_unknown_key_suggests_the_nearest():
+    d = doc()
+    d["spatial"]["widht_m"] = d["spatial"].pop("width_m")
+    fails(d, "spatial.widht_m: unknown key (did you mean 'width_m'?)")
+    d = doc()
+    d["spatial"]["drive"]["radius"] = 0.3
+    fails(d, "spatial.drive.radius: unknown key (did you mean 'radius_m'?)")
+    d = doc()
+    d["spatial"]["sites"]["T9"] = [[1.0, 1.0]]
+    fails(d, "spatial.sites.T9: unknown key")
+
+
+def test_missing_site_list_for_a_type():
+    d = doc()
+    del d["spatial"]["sites"]["T5"]
+    fails(d, "spatial.sites.T5: missing")
+
+
+@pytest.mark.parametrize(
+    "key, value, needle",
+    [
+        ("dt_s", 0.0, "spatial.dt_s: must be > 0"),
+        ("dt_s", -1.0, "spatial.dt_s: must be >= 0"),
+        ("dt_s", float("nan"), "spatial.dt_s: must be finite"),
+        ("width_m", float("inf"), "spatial.width_m: must be finite"),
+        ("control_hz", 1000.0, "spatial.control_hz: control (1000 Hz) cannot run faster"),
+        ("arrive_tol_m", 0.0, "spatial.arrive_tol_m: must be > 0"),
+        ("max_recoveries", 1.5, "spatial.max_recoveries: must be an integer"),
+        ("grid_res_m", 1e-4, "spatial.grid_res_m: the grid would have more than"),
+    ],
+)
+def test_bad_numbers(key, value, needle):
+    d = doc()
+    d["spatial"][key] = value
+    fails(d, needle)
+
+
+def test_obstacles_must_be_convex_and_in_the_arena():
+    d = doc()
+    d["spatial"]["obstacles"][1] = [[12, 4], [16, 4], [14, 5], [16, 7], [12, 7]]
+    fails(d, "spatial.obstacles[1]: must be convex")
+    d = doc()
+    d["spatial"]["obstacles"][2][1] = [28.0, 13.0]
+    fails(d, "spatial.obstacles[2][1]: vertex (28, 13) outside the arena")
+    d = doc()
+    d["spatial"]["obstacles"][0][0] = [4.0, "a"]
+    fails(d, "spatial.obstacles[0][0][1]: must be a number")
+
+
+def test_clockwise_obstacles_are_accepted():
+    d = copy.deepcopy(doc())
+    d["spatial"]["obstacles"][0] = d["spatial"]["obstacles"][0][::-1]
+    poly = np.array(parse_scenario(d).spatial.obstacles[0])
+    x, y = poly.T
+    assert set(map(tuple, poly.tolist())) == {(4, 4), (8, 4), (8, 7), (4, 7)}
+    assert (x * np.roll(y, -1) - np.roll(x, -1) * y).sum() > 0  # stored counter-clockwise

@@ -1,0 +1,154 @@
+"""The planner: exact straight lines in open space, geodesics around obstacles, never shorter."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from sim.planning import GridPlanner, inflate, polygon_signed_distance
+from sim.scenario import DriveSpec, SpatialSpec
+
+BOX = ((8.0, 8.0), (12.0, 8.0), (12.0, 12.0), (8.0, 12.0))
+TRIANGLE = ((14.0, 2.0), (17.0, 2.0), (15.5, 6.0))
+
+
+def spatial(obstacles=(BOX,), width=20.0, height=20.0) -> SpatialSpec:
+    return SpatialSpec(width, height, tuple(obstacles), ((),), DriveSpec(), clearance_m=0.1)
+
+
+def path_length(path: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+
+
+def grid_distances(planner: GridPlanner, start, goals, res: float = 0.1) -> np.ndarray:
+    """8-connected Dijkstra over cell centres (scipy csgraph): an upper bound on the geodesic."""
+    nx, ny = int(planner.spatial.width_m / res), int(planner.spatial.height_m / res)
+    gx, gy = np.meshgrid((np.arange(nx) + 0.5) * res, (np.arange(ny) + 0.5) * res, indexing="ij")
+    centres = np.column_stack([gx.ravel(), gy.ravel()])
+    free = planner.free(centres).reshape(nx, ny)
+    idx = np.arange(nx * ny).reshape(nx, ny)
+    rows, cols, weights = [], [], []
+    for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+        a = idx[: nx - dx, max(0, -dy) : ny - max(0, dy)]
+        b = idx[dx:, max(0, dy) : ny + min(0, dy)]
+        ok = free.ravel()[a.ravel()] & free.ravel()[b.ravel()]
+        rows.append(a.ravel()[ok])
+        cols.append(b.ravel()[ok])
+        weights.append(np.full(ok.sum(), res * np.hypot(dx, dy)))
+    graph = coo_matrix(
+        (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(nx * ny, nx * ny),
+    ).tocsr()
+
+    def cell(p) -> int:
+        return int(p[0] / res) * ny + int(p[1] / res)
+
+    dist = dijkstra(graph, directed=False, indices=cell(start))
+    goals = np.asarray(goals, dtype=float)
+    ends = np.array([cell(g) for g in goals])
+    return (
+        dist[ends]
+        + np.linalg.norm(centres[ends] - goals, axis=1)
+        + np.linalg.norm(centres[cell(start)] - start)
+    )
+
+
+def test_open_space_distance_is_the_straight_line_exactly():
+    planner = GridPlanner(spatial(obstacles=()))
+    rng = np.random.default_rng(1)
+    pos, sites = rng.uniform(1, 19, (30, 2)), rng.uniform(1, 19, (7, 2))
+    expect = np.linalg.norm(pos[:, None] - sites[None], axis=2)
+    assert np.array_equal(planner.distances(pos, sites), expect)
+
+
+def test_line_of_sight_past_an_obstacle_is_the_straight_line():
+    planner = GridPlanner(spatial())
+    d = planner.distances([[2.0, 2.0]], [[18.0, 2.0], [2.0, 18.0]])
+    assert d[0, 0] == 16.0 and d[0, 1] == 16.0
+
+
+def test_around_a_box_the_distance_is_the_geodesic_through_its_inflated_corners():
+    planner = GridPlanner(spatial())
+    start, goal = np.array([2.0, 10.0]), np.array([18.0, 10.0])
+    r = 0.25 + 0.1
+    corner_a, corner_b = np.array([8 - r, 12 + r]), np.array([12 + r, 12 + r])
+    expect = np.linalg.norm(corner_a - start) + (12 - 8 + 2 * r) + np.linalg.norm(goal - corner_b)
+    d = planner.distances(start[None], goal[None])[0, 0]
+    assert d == pytest.approx(expect, rel=1e-12)
+    path = planner.path(start, goal)
+    assert path_length(path) == pytest.approx(d, rel=1e-12)
+    assert np.array_equal(path[0], start) and np.array_equal(path[-1], goal)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_planned_distance_between_straight_line_and_a_fine_grid_path(seed):
+    planner = GridPlanner(spatial(obstacles=(BOX, TRIANGLE)))
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(0.5, 19.5, (40, 2))
+    pts = pts[planner.free(pts)][:6]
+    for a in pts[:3]:
+        d = planner.distances(a[None], pts[3:])[0]
+        grid = grid_distances(planner, a, pts[3:])
+        assert (d >= np.linalg.norm(pts[3:] - a, axis=1) - 1e-12).all()
+        assert (d <= grid + 1e-9).all()
+        assert (d >= (grid - 0.3) / 1.0824).all()  # 8-connected: <= 8.24 % long, + end cells
+        for b, db in zip(pts[3:], d, strict=True):
+            assert path_length(planner.path(a, b)) == pytest.approx(db, rel=1e-9)
+
+
+def test_path_never_cuts_through_an_obstacle():
+    planner = GridPlanner(spatial(obstacles=(BOX, TRIANGLE)))
+    path = planner.path([9.0, 3.0], [10.0, 17.0])
+    assert not planner.blocked(path[:-1], path[1:]).any()
+    t = np.linspace(0, 1, 200)[:, None]
+    for a, b in itertools.pairwise(path):
+        samples = a + t * (b - a)
+        for poly in (BOX, TRIANGLE):
+            clear = polygon_signed_distance(samples, np.asarray(poly, dtype=float))
+            assert clear.min() >= 0.25 + 0.1 - 1e-9  # robot radius + clearance
+
+
+def test_unreachable_site_is_inf_and_has_no_path():
+    walls = (
+        ((14.0, 14.0), (20.0, 14.0), (20.0, 14.5), (14.0, 14.5)),
+        ((14.0, 14.0), (14.5, 14.0), (14.5, 20.0), (14.0, 20.0)),
+    )
+    planner = GridPlanner(spatial(obstacles=walls))
+    assert planner.distances([[2.0, 2.0]], [[17.0, 17.0]])[0, 0] == np.inf
+    assert planner.path([2.0, 2.0], [17.0, 17.0]).shape == (0, 2)
+
+
+def test_nearer_robot_has_the_lower_distance():
+    planner = GridPlanner(spatial())
+    d = planner.distances([[2.0, 10.0], [4.0, 10.0], [2.0, 2.0]], [[18.0, 10.0]])[:, 0]
+    assert d[1] < d[0]
+    assert np.all(np.isfinite(d))
+
+
+def test_a_robot_pressed_into_the_margin_still_gets_a_finite_bid_not_below_the_line():
+    planner = GridPlanner(spatial())
+    inside_margin = np.array([[7.8, 10.0]])  # within radius + clearance of the box
+    assert not planner.free(inside_margin)[0]
+    d = planner.distances(inside_margin, [[2.0, 10.0], [18.0, 10.0]])
+    assert np.isfinite(d).all()
+    assert (d >= np.linalg.norm(inside_margin - [[2.0, 10.0], [18.0, 10.0]], axis=1)).all()
+
+
+def test_inflate_contains_the_grown_polygon():
+    poly = np.array(TRIANGLE)
+    grown = inflate(poly, 0.5)
+    ring = np.array([[np.cos(a), np.sin(a)] for a in np.linspace(0, 2 * np.pi, 64)]) * 0.5
+    around = (poly[:, None, :] + ring[None]).reshape(-1, 2)
+    assert (polygon_signed_distance(around, grown) <= 1e-9).all()
+
+
+def test_occupancy_grid_marks_obstacles_and_walls():
+    planner = GridPlanner(spatial())
+    grid = planner.occupancy
+    assert grid.shape == (80, 80)
+    assert grid[40, 40] and grid[0, 0] and not grid[10, 10]
+    assert planner.reachable([2.0, 2.0]) and not planner.reachable([10.0, 10.0])

@@ -27,13 +27,14 @@ def compare(
     out: Path,
     workers: int | None = None,
     progress: bool = True,
+    overrides: tuple[tuple[str, float], ...] = (),
 ) -> dict:
     """Run every (cost, allocator, seed), write compare.json, compare.md and compare.png."""
     sc = _load(scenario)
     for cost in costs:
         check_cost(sc, cost)
     combos = [(c, a) for c in costs for a in allocators]
-    specs = [RunSpec(scenario, a, c, s) for c, a in combos for s in seeds]
+    specs = [RunSpec(scenario, a, c, s, overrides) for c, a in combos for s in seeds]
     results = run_many(specs, workers=workers, progress=progress, desc=f"compare {sc.name}")
     n = len(seeds)
     table = {}

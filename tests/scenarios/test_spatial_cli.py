@@ -1,0 +1,132 @@
+"""Spatial commands end to end on short runs: render, compare, soak."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from scenarios.cli import main
+from scenarios.compare import compare, fig_compare
+from scenarios.soak import soak
+
+SHORT = (("stream.n_sets", 2), ("stream.learn_sets", 1), ("stream.test_sets", 1))
+
+
+def test_render_cli_writes_a_gif(tmp_path, capsys):
+    gif = tmp_path / "run.gif"
+    code = main(
+        [
+            "render",
+            "paper_spatial",
+            "--sets",
+            "1",
+            "--frames",
+            "12",
+            "--size",
+            "240x240",
+            "--from",
+            "10",
+            "--to",
+            "120",
+            "--gif",
+            str(gif),
+            "--trajectory",
+            str(tmp_path / "t.npz"),
+        ]
+    )
+    assert code == 0, capsys.readouterr().err
+    with Image.open(gif) as im:
+        assert im.n_frames == 12 and im.size == (240, 240)
+        frames = []
+        for k in (0, 11):
+            im.seek(k)
+            frames.append(np.asarray(im.convert("RGB")))
+    assert not np.array_equal(frames[0], frames[1])
+    assert (tmp_path / "t.npz").stat().st_size > 0
+
+
+def test_render_cli_bad_window_is_one_line(tmp_path, capsys):
+    code = main(
+        [
+            "render",
+            "paper_spatial",
+            "--sets",
+            "1",
+            "--from",
+            "500",
+            "--to",
+            "100",
+            "--gif",
+            str(tmp_path / "x.gif"),
+        ]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and "--from" in err and err.count("\n") == 1
+    assert not (tmp_path / "x.gif").exists()
+
+
+def test_render_needs_spatial_scenario(tmp_path, capsys):
+    code = main(["render", "paper", "--gif", str(tmp_path / "x.gif")])
+    assert code == 2 and "needs a spatial scenario" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def compared(tmp_path_factory):
+    out = tmp_path_factory.mktemp("compare")
+    doc = compare(
+        "paper_spatial",
+        ["abstract", "distance"],
+        ["market", "expt"],
+        [0, 1],
+        out,
+        workers=2,
+        progress=False,
+        overrides=SHORT,
+    )
+    return out, doc
+
+
+def test_compare_writes_table_and_plot(compared):
+    out, doc = compared
+    assert json.loads((out / "compare.json").read_text()) == json.loads(json.dumps(doc))
+    assert set(doc["rows"]) == {
+        "abstract/market",
+        "abstract/expt",
+        "distance/market",
+        "distance/expt",
+    }
+    for row in doc["rows"].values():
+        assert 0 < row["all"] <= 1 and row["distance_m"] > 0 and row["high_wait_s"] > 0
+    assert np.isnan(doc["rows"]["abstract/market"]["space"])
+    assert doc["rows"]["distance/expt"]["space"] <= 3498
+    assert "| distance | market |" in (out / "compare.md").read_text()
+
+
+def test_distance_bids_drive_less_than_abstract_bids(compared):
+    _, doc = compared
+    rows = doc["rows"]
+    assert rows["distance/market"]["distance_m"] < rows["abstract/market"]["distance_m"]
+
+
+def test_compare_figure_is_the_data(compared):
+    _, doc = compared
+    fig = fig_compare(doc)
+    bars = [p for ax in fig.axes for p in ax.patches if p.get_gid()]
+    assert len(bars) == 6 * 4
+    for bar in bars:
+        key, cost, alloc = bar.get_gid().split("|")
+        value = doc["rows"][f"{cost}/{alloc}"][key]
+        if not np.isnan(value):
+            assert bar.get_height() == pytest.approx(value)
+
+
+def test_soak_short():
+    result = soak("large", tasks=400, progress=False)
+    assert result["tasks_announced"] >= 400
+    assert result["tasks_allocated"] <= result["tasks_announced"]
+    assert result["tasks_failed"] == 0
+    assert result["max_overlap_m"] <= 0.01
+    assert result["rss_growth_mib"] < 50

@@ -102,7 +102,14 @@ def cmd_run(args) -> int:
     scenario = _load(spec.scenario)
     out.mkdir(parents=True, exist_ok=True)
     write_manifest(out, build_manifest(scenario, [spec]))
-    summary = execute(spec, checkpoint=checkpoint, resume=args.resume)
+    summary = execute(spec, checkpoint=checkpoint, resume=args.resume, task_table=True)
+    table = summary.pop("task_table")
+    if scenario.spatial is not None:
+        from scenarios.figures import fig_run_spatial
+        from scenarios.protocol import write_csv_atomic
+
+        write_csv_atomic(out / "tasks.csv", table)
+        fig_run_spatial(table, summary["spatial"], spec.cost, out / "spatial.png")
     metrics = {
         "scenario": scenario.name,
         "cost_model": spec.cost,

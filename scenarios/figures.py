@@ -235,3 +235,70 @@ def _log_ticks(ax, values) -> None:
     ]
     ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
     ax.minorticks_off()
+
+
+def fig_run_spatial(table: dict, spatial: dict, cost: str, path: Path | None = None):
+    """One spatial run: waiting and finishing times, bid against reality, distance per robot."""
+    import matplotlib as mpl
+
+    high = np.asarray(table["high"], dtype=bool)
+    ok = np.asarray(table["ok"], dtype=bool)
+    start = np.asarray(table["time_to_start_s"])
+    finish = np.asarray(table["time_to_finish_s"])
+    with mpl.rc_context(STYLE):
+        fig = _figure(9.6, 7.0)
+        (a, b), (c, d) = fig.subplots(2, 2)
+        bins = np.linspace(0, max(float(np.nanmax(finish[ok], initial=1.0)), 1.0), 30)
+        for sel, label, colour in (
+            (high & ok, "high priority", "C3"),
+            (~high & ok, "low priority", "C0"),
+        ):
+            a.hist(
+                start[sel], bins=bins, alpha=0.6, label=label, color=colour, gid=f"start|{label}"
+            )
+            b.hist(
+                finish[sel], bins=bins, alpha=0.6, label=label, color=colour, gid=f"finish|{label}"
+            )
+        a.set(title="(a) Time to start (allocation to arrival)", xlabel="s", ylabel="tasks")
+        b.set(title="(b) Time to finish (allocation to done)", xlabel="s", ylabel="tasks")
+        a.legend(frameon=False)
+        actual = {"distance": np.asarray(table["distance_m"]), "time": finish}.get(cost)
+        if actual is not None:
+            bid = np.asarray(table["bid"])
+            c.scatter(bid[ok], actual[ok], s=6, alpha=0.5, color="C2", gid="estimate")
+            top = float(max(np.nanmax(bid[ok], initial=1.0), np.nanmax(actual[ok], initial=1.0)))
+            c.plot([0, top], [0, top], color="0.4", lw=0.8, ls="--", label="estimate = actual")
+            unit = "m" if cost == "distance" else "s"
+            c.set(
+                title=f"(c) Bid against actual ({cost} cost)",
+                xlabel=f"bid [{unit}]",
+                ylabel=f"actual [{unit}]",
+            )
+            c.legend(frameon=False)
+        else:
+            c.text(
+                0.5,
+                0.5,
+                "abstract cost: bids are not physical",
+                ha="center",
+                va="center",
+                transform=c.transAxes,
+            )
+            c.set(title="(c) Bid against actual")
+        robots = sorted(set(table["robot"]), key=lambda r: (len(r), r))
+        dist = [
+            float(np.sum(np.asarray(table["distance_m"])[np.asarray(table["robot"]) == r]))
+            for r in robots
+        ]
+        d.bar(robots, dist, color="0.45", gid="distance")
+        d.set(title="(d) Distance driven per robot, test sets", ylabel="m")
+        d.tick_params(axis="x", rotation=90 if len(robots) > 12 else 0)
+        for ax in (a, b, c, d):
+            ax.grid(alpha=0.3)
+        fig.suptitle(
+            f"collisions robot-robot {spatial.get('collisions_robot', 0):.0f}, robot-wall "
+            f"{spatial.get('collisions_wall', 0):.0f}; deepest overlap "
+            f"{1000 * spatial.get('max_overlap_m', 0.0):.1f} mm; failed tasks {int((~ok).sum())}"
+        )
+    _save(fig, path)
+    return fig

@@ -109,6 +109,27 @@ def spatial_metrics(scenario: Scenario, stream: TaskStream, record: RunRecord, c
     }
 
 
+def completion_table(scenario: Scenario, stream: TaskStream, record: RunRecord) -> dict:
+    """Test-phase allocated tasks as columns: what was bid and what really happened."""
+    comps = record.test.completions
+    ids = np.array([c.task_id for c in comps], dtype=int)
+    exec_s = np.asarray(scenario.exec_time_s, dtype=float)[stream.types[ids]]
+    t_alloc = np.array([c.t_alloc_s for c in comps])
+    t_done = np.array([c.t_done_s for c in comps])
+    return {
+        "task": ids.tolist(),
+        "type": [scenario.task_types[i] for i in stream.types[ids]],
+        "high": stream.high[ids].tolist(),
+        "robot": [scenario.robots[c.robot].name for c in comps],
+        "bid": [c.bid for c in comps],
+        "distance_m": [c.distance_m for c in comps],
+        "time_to_start_s": (t_done - exec_s - t_alloc).tolist(),
+        "time_to_finish_s": (t_done - t_alloc).tolist(),
+        "ok": [c.ok for c in comps],
+        "reason": [c.reason for c in comps],
+    }
+
+
 def ci95(values: list[float]) -> float:
     """Half-width of the two-sided 95% Student-t confidence interval of the mean."""
     arr = np.asarray([v for v in values if not math.isnan(v)], dtype=float)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
@@ -31,7 +31,7 @@ from learning.checkpoint import (
 )
 from learning.episode import record_arrays, record_from_arrays, run_protocol
 from scenarios.loader import load_scenario
-from scenarios.metrics import spatial_metrics, summarize_run
+from scenarios.metrics import completion_table, spatial_metrics, summarize_run
 from sim import make_world
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
@@ -117,23 +117,21 @@ def check_stream(scenario: Scenario, stream: TaskStream, where: str) -> None:
 
 def execute(
     spec: RunSpec,
-    world_hook: Callable[[Any], None] | None = None,
     checkpoint: Path | None = None,
     resume: bool = False,
     recorder=None,
+    task_table: bool = False,
 ) -> dict:
     """Run one spec and return its JSON-able summary (plus the fig. 2 trace when asked).
 
     Args:
-        world_hook: called with the world before the run (e.g. to attach a recorder).
         checkpoint: write learned state here after every task set (atomically).
         resume: continue from ``checkpoint`` instead of starting afresh; the result equals
             that of an uninterrupted run.
         recorder: a ``sim.recording.TrajectoryRecorder`` (spatial worlds) to fill.
+        task_table: add ``"task_table"``, one row per test-phase task that was allocated.
     """
     scenario, stream, world, cost, allocator, rng = build_run(spec)
-    if world_hook is not None:
-        world_hook(world)
     if recorder is not None:
         world.recorder = recorder
     if checkpoint is not None and not hasattr(world, "state_arrays"):
@@ -168,6 +166,8 @@ def execute(
     )
     out = summarize_run(scenario, stream, record, allocator.learns)
     out["spec"] = dataclasses.asdict(spec)
+    if task_table:
+        out["task_table"] = completion_table(scenario, stream, record)
     if scenario.spatial is not None:
         out["spatial"] = {
             **spatial_metrics(scenario, stream, record, spec.cost),
@@ -240,6 +240,19 @@ def run_many(
 
 def default_workers() -> int:
     return max(1, min(os.cpu_count() or 1, 8))
+
+
+def write_csv_atomic(path: Path, columns: dict[str, list]) -> None:
+    """Write equal-length columns as CSV via a temporary file and a rename."""
+    import csv
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp")
+    with tmp.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(list(columns))
+        writer.writerows(zip(*columns.values(), strict=True))
+    os.replace(tmp, path)
 
 
 def write_json_atomic(path: Path, doc: Any) -> None:

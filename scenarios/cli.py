@@ -32,29 +32,44 @@ def cmd_validate(args) -> int:
 
 
 def cmd_reproduce(args) -> int:
-    from scenarios.reproduce import reproduce, summary_table
+    from scenarios.reproduce import (
+        DEFAULT_DELTA_U_GRID,
+        SPATIAL_DELTA_U_GRID,
+        reproduce,
+        summary_table,
+    )
 
-    scenario = args.scenario or ("paper" if args.cost == "abstract" else "paper_spatial")
-    out = args.out or Path("renders") / Path(scenario).stem
+    spatial = args.cost != "abstract"
+    scenario = args.scenario or ("paper_spatial" if spatial else "paper")
+    seeds = args.seeds or list(range(5 if spatial else 10))
+    grid = (
+        args.tradeoff
+        if args.tradeoff is not None
+        else (SPATIAL_DELTA_U_GRID if spatial else DEFAULT_DELTA_U_GRID)
+    )
+    out = args.out or Path("renders") / (
+        Path(scenario).stem + ("" if not spatial else f"_{args.cost}")
+    )
     t0 = time.perf_counter()
     metrics = reproduce(
         scenario,
-        args.seeds,
+        seeds,
         out,
         cost=args.cost,
         workers=args.workers,
+        delta_u_grid=grid,
         trace_robot=args.robot,
         progress=not args.no_progress,
     )
     print(
         f"{metrics['scenario']} ({metrics['cost_model']} cost), test-set completion, "
-        f"mean ± 95% CI over {len(args.seeds)} seeds:"
+        f"mean ± 95% CI over {len(seeds)} seeds:"
     )
     print(summary_table(metrics))
-    print(
-        f"wrote {out}/metrics.json, fig1_completion.png, fig2_r5.png, table2.md, tradeoff.png "
-        f"in {time.perf_counter() - t0:.1f} s"
+    files = "metrics.json, fig1_completion.png, fig2_r5.png, table2.md" + (
+        ", tradeoff.png" if grid else ""
     )
+    print(f"wrote {out}/{{{files}}} in {time.perf_counter() - t0:.1f} s")
     return 0
 
 

@@ -35,6 +35,20 @@ def _seed_list(text: str) -> list[int]:
     return seeds
 
 
+def _float_list(text: str) -> tuple[float, ...]:
+    if text.strip().lower() == "none":
+        return ()
+    try:
+        values = tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"not a comma-separated list of numbers: {text!r}"
+        ) from None
+    if not values or any(not 0 <= v <= 2 for v in values):
+        raise argparse.ArgumentTypeError(f"delta_u values must lie in [0, 2]: {text!r}")
+    return values
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -85,8 +99,16 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--seeds",
         type=_seed_list,
-        default=_seed_list("10"),
-        help="a count N (seeds 0..N-1), a list '1,4,9' or a range '0-19' (default 10)",
+        default=None,
+        help="a count N (seeds 0..N-1), a list '1,4,9' or a range '0-19' "
+        "(default 10 with the abstract cost, 5 with distance/time)",
+    )
+    r.add_argument(
+        "--tradeoff",
+        type=_float_list,
+        default=None,
+        help="delta_u values for tradeoff.png, comma-separated, or 'none' (default "
+        "0.02,0.03,0.05,0.08,0.1,0.2,0.3,0.5 abstract; 0.02,0.3 distance/time)",
     )
     r.add_argument(
         "--out", type=Path, default=None, help="output folder (default renders/<scenario>/)"

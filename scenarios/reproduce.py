@@ -13,6 +13,7 @@ from scenarios.protocol import RunSpec, _load, check_cost, run_many, write_json_
 from scenarios.reference import PAPER_TABLE2
 
 DEFAULT_DELTA_U_GRID = (0.02, 0.03, 0.05, 0.08, 0.1, 0.2, 0.3, 0.5)
+SPATIAL_DELTA_U_GRID = (0.02, 0.3)  # physics runs cost ~100x more: a short curve by default
 
 
 def reproduce(
@@ -67,8 +68,9 @@ def reproduce(
     trace = next((r["trace"] for r in by_alloc["expt"] if "trace" in r), None)
     if trace is not None:
         fig_robot_trace(trace, out / "fig2_r5.png")
-    refs = {a: _tradeoff_point(None, metrics["allocators"][a]) for a in allocs if a != "expt"}
-    fig_tradeoff(points, refs, out / "tradeoff.png")
+    if grid:
+        refs = {a: _tradeoff_point(None, metrics["allocators"][a]) for a in allocs if a != "expt"}
+        fig_tradeoff(points, refs, out / "tradeoff.png")
     (out / "table2.md").write_text(table2_markdown(sc, metrics["allocators"]["expt"]))
     return metrics
 
@@ -145,4 +147,10 @@ def summary_table(metrics: dict) -> str:
     return "\n".join(rows)
 
 
-__all__ = ["DEFAULT_DELTA_U_GRID", "reproduce", "summary_table", "table2_markdown"]
+__all__ = [
+    "DEFAULT_DELTA_U_GRID",
+    "SPATIAL_DELTA_U_GRID",
+    "reproduce",
+    "summary_table",
+    "table2_markdown",
+]

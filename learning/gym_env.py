@@ -95,10 +95,7 @@ class AllocationRounds:
         self.stream_ = generate_stream(self.scenario, np.random.default_rng(stream_ss))
         self.world.reset(np.random.default_rng(world_ss))
         if self.render_mode == "rgb_array" and self.scenario.spatial is not None:
-            sp, sc = self.scenario.spatial, self.scenario
-            self.recorder_ = TrajectoryRecorder(
-                (sp.width_m, sp.height_m), sp.obstacles, sc.task_types, [r.name for r in sc.robots]
-            )
+            self.recorder_ = TrajectoryRecorder.for_scenario(self.scenario)
             self.world.recorder = self.recorder_
         spec = self.scenario.experience
         self.experience_ = ExperienceModel(

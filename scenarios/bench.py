@@ -23,14 +23,7 @@ def _paper_trajectory():
     from sim.recording import TrajectoryRecorder
 
     sc = _load("paper_spatial")
-    sp = sc.spatial
-    recorder = TrajectoryRecorder(
-        (sp.width_m, sp.height_m),
-        sp.obstacles,
-        sc.task_types,
-        [r.name for r in sc.robots],
-        every_s=0.1,
-    )
+    recorder = TrajectoryRecorder.for_scenario(sc)
     one_set = (("stream.n_sets", 1), ("stream.learn_sets", 1), ("stream.test_sets", 1))
     execute(RunSpec("paper_spatial", "expt", "distance", 0, one_set), recorder=recorder)
     return recorder.finish()

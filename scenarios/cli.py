@@ -175,14 +175,7 @@ def cmd_render(args) -> int:
     for path in (args.gif, args.mp4, args.trajectory):
         if path is not None and not path.parent.is_dir():
             raise UserError(f"{path.parent}: output folder does not exist")
-    sp = sc.spatial
-    recorder = TrajectoryRecorder(
-        (sp.width_m, sp.height_m),
-        sp.obstacles,
-        sc.task_types,
-        [r.name for r in sc.robots],
-        every_s=0.1,
-    )
+    recorder = TrajectoryRecorder.for_scenario(sc)
     spec = RunSpec(args.scenario, args.allocator, args.cost, args.seed, overrides)
     execute(spec, recorder=recorder)
     traj = recorder.finish()

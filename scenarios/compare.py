@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from scenarios.figures import ALLOCATOR_LABELS, STYLE, _figure, _save, allocator_colour
+from scenarios.figures import STYLE, _figure, _save, allocator_bars
 from scenarios.metrics import aggregate
 from scenarios.protocol import RunSpec, _load, check_cost, run_many, write_json_atomic
 
@@ -106,23 +106,18 @@ def fig_compare(doc: dict, path: Path | None = None):
     with mpl.rc_context(STYLE):
         fig = _figure(12.0, 6.6)
         axes = fig.subplots(2, 3).ravel()
-        width = 0.8 / len(allocs)
         x = np.arange(len(costs))
         for ax, (key, title) in zip(axes, panels, strict=True):
-            for k, alloc in enumerate(allocs):
-                vals = [doc["rows"][f"{c}/{alloc}"][key] for c in costs]
-                errs = [doc["rows"][f"{c}/{alloc}"][f"{key}_ci95"] for c in costs]
-                bars = ax.bar(
-                    x + (k - (len(allocs) - 1) / 2) * width,
-                    vals,
-                    width,
-                    yerr=errs,
-                    capsize=2,
-                    color=allocator_colour(alloc, k),
-                    label=ALLOCATOR_LABELS.get(alloc, alloc),
+            series = [
+                (
+                    alloc,
+                    [doc["rows"][f"{c}/{alloc}"][key] for c in costs],
+                    [doc["rows"][f"{c}/{alloc}"][f"{key}_ci95"] for c in costs],
+                    [f"{key}|{c}|{alloc}" for c in costs],
                 )
-                for bar, c in zip(bars, costs, strict=True):
-                    bar.set_gid(f"{key}|{c}|{alloc}")
+                for alloc in allocs
+            ]
+            allocator_bars(ax, x, series)
             ax.set_xticks(x, [f"{c} cost" for c in costs])
             ax.set_title(title)
             ax.grid(axis="y", alpha=0.3)

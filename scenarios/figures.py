@@ -48,6 +48,27 @@ def allocator_colour(name: str, k: int = 0) -> str:
     return ALLOCATOR_COLOURS.get(name, f"C{k + 3}")
 
 
+def allocator_bars(ax, x: np.ndarray, series: list[tuple[str, list, list, list[str]]]) -> None:
+    """Grouped bars, one colour per allocator, 95% CI whiskers, a gid per bar.
+
+    ``series`` holds (allocator, values, ci95 half-widths, gids), one entry per allocator.
+    """
+    width = 0.8 / len(series)
+    for k, (name, vals, errs, gids) in enumerate(series):
+        bars = ax.bar(
+            x + (k - (len(series) - 1) / 2) * width,
+            vals,
+            width,
+            yerr=errs,
+            capsize=2,
+            color=allocator_colour(name, k),
+            label=ALLOCATOR_LABELS.get(name, name),
+            error_kw={"elinewidth": 0.8},
+        )
+        for bar, gid in zip(bars, gids, strict=True):
+            bar.set_gid(gid)
+
+
 def fig_completion(metrics: dict, path: Path | None = None):
     """Paper Fig. 1: completion ratio per task type and priority, allocators side by side, CI95."""
     allocs = list(metrics["allocators"])
@@ -60,26 +81,16 @@ def fig_completion(metrics: dict, path: Path | None = None):
     with mpl.rc_context(STYLE):
         fig = _figure(4.2 * cols, 2.9 * rows)
         axes = fig.subplots(rows, cols, squeeze=False).ravel()
-        width = 0.8 / len(allocs)
         for ax, pair, letter in zip(axes, panels, "abcdefghijklmnopqrstuvwxyz", strict=False):
             groups = [(t, p) for t in pair for p in ("low", "high")]
             x = np.arange(len(groups))
-            for k, name in enumerate(allocs):
+            series = []
+            for name in allocs:
                 comp = metrics["allocators"][name]["completion"]
                 vals = [comp["by_type"][t][p] for t, p in groups]
                 errs = [comp["ci95"]["by_type"][t][p] for t, p in groups]
-                bars = ax.bar(
-                    x + (k - (len(allocs) - 1) / 2) * width,
-                    vals,
-                    width,
-                    yerr=errs,
-                    capsize=2,
-                    color=allocator_colour(name, k),
-                    label=ALLOCATOR_LABELS.get(name, name),
-                    error_kw={"elinewidth": 0.8},
-                )
-                for bar, (t, p) in zip(bars, groups, strict=True):
-                    bar.set_gid(f"{name}|{t}|{p}")
+                series.append((name, vals, errs, [f"{name}|{t}|{p}" for t, p in groups]))
+            allocator_bars(ax, x, series)
             ax.set_xticks(x, [f"{t}\n{p}" for t, p in groups])
             ax.set_ylim(0, 1.05)
             ax.set_ylabel("completion ratio")

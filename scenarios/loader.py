@@ -58,9 +58,8 @@ def resolve(name_or_path: str | Path) -> Path:
     return Path(str(data))
 
 
-def load_scenario(name_or_path: str | Path) -> Scenario:
-    """Read, parse and validate a scenario; raise ScenarioError with a one-line message."""
-    path = resolve(name_or_path)
+def read_toml(path: Path) -> tuple[dict[str, Any], bytes]:
+    """(parsed document, raw bytes) of a TOML file; ScenarioError with one line otherwise."""
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
@@ -68,11 +67,17 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read ({exc.strerror})") from None
     try:
-        doc = tomllib.loads(raw.decode("utf-8"))
+        return tomllib.loads(raw.decode("utf-8")), raw
     except UnicodeDecodeError:
         raise ScenarioError(f"{path}: not UTF-8 text") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: TOML syntax error: {exc}") from None
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """Read, parse and validate a scenario; raise ScenarioError with a one-line message."""
+    path = resolve(name_or_path)
+    doc, raw = read_toml(path)
     return parse_scenario(doc, source=str(path), sha256=hashlib.sha256(raw).hexdigest())
 
 

@@ -30,6 +30,7 @@ import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
+from scenarios.cli_parser import int_at_least
 from scenarios.protocol import RunSpec, UserError, execute
 from scenarios.sweep_report import (
     key_columns,
@@ -184,16 +185,6 @@ def _run_dask(client, todo, record) -> None:
 
 
 # -- command line ------------------------------------------------------------------------------
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``mrta sweep SPEC.toml [--out DIR] [--workers N] [--scheduler ADDRESS]``."""
     p = subparsers.add_parser(
@@ -208,7 +199,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         "--out", type=Path, default=None, help="output folder (default renders/sweeps/<name>/)"
     )
     p.add_argument(
-        "--workers", type=_positive_int, default=None, help="local processes (default: all cores)"
+        "--workers", type=int_at_least(1), default=None, help="local processes (default: all cores)"
     )
     p.add_argument(
         "--scheduler",

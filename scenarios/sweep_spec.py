@@ -20,7 +20,7 @@ from typing import Any
 
 from allocation.costs import COST_MODELS
 from learning import ALLOCATORS
-from scenarios.loader import ScenarioError, _did_you_mean, parse_scenario, resolve
+from scenarios.loader import ScenarioError, _did_you_mean, parse_scenario, read_toml, resolve
 from scenarios.protocol import OVERRIDABLE, RunSpec
 from sim.scenario import ExperienceSpec, LearningSpec, StreamSpec
 
@@ -127,16 +127,7 @@ def _resolve_sweep(name_or_path: str | Path) -> Path:
 def load_sweep(name_or_path: str | Path) -> SweepSpec:
     """Read and validate a sweep file (a path, or a bundled sweep name)."""
     path = _resolve_sweep(name_or_path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise ScenarioError(f"{path}: file not found") from None
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read ({exc.strerror})") from None
-    try:
-        doc = tomllib.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise ScenarioError(f"{path}: not a valid TOML file: {exc}") from None
+    doc, raw = read_toml(path)
     return _Parser(path).parse(doc, hashlib.sha256(raw).hexdigest())
 
 

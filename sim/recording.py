@@ -69,6 +69,13 @@ class TrajectoryRecorder:
         self._latest: dict[int, int] = {}  # task id -> row of its latest announcement
         self._next_t = -np.inf
 
+    @classmethod
+    def for_scenario(cls, scenario, every_s: float = 0.1) -> TrajectoryRecorder:
+        """A recorder for a spatial scenario's arena, obstacles, task types and robots."""
+        sp = scenario.spatial
+        names = [r.name for r in scenario.robots]
+        return cls((sp.width_m, sp.height_m), sp.obstacles, scenario.task_types, names, every_s)
+
     def has_poses(self) -> bool:
         return bool(self._times)
 

@@ -223,7 +223,7 @@ BAD = [
         '"experience.n_min" = 3\n[[points]]\n"learning.history" = 2\n',
         "points: use either [grid] or [[points]], not both",
     ),
-    ("seeds = 5", "seeds = 5 5", "not a valid TOML file"),
+    ("seeds = 5", "seeds = 5 5", "TOML syntax error"),
 ]
 
 

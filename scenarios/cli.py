@@ -251,6 +251,16 @@ COMMANDS = {
 }
 
 
+WHERE = {  # what an interrupted command leaves behind, said on Ctrl-C
+    "reproduce": "metrics.json and the figures are written only at the end, so --out is unchanged",
+    "compare": "compare.json and the figures are written only at the end, so --out is unchanged",
+    "run": "with --checkpoint, OUT/checkpoint.npz holds the last finished task set: "
+    "repeat the command with --resume to continue",
+    "sweep": "finished runs are in OUT/runs.csv: repeat the command to run only the missing ones",
+    "soak": "no output is written by a soak",
+}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mrta`` console script."""
     from learning.checkpoint import CheckpointError
@@ -276,7 +286,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         print(
-            "mrta: interrupted; completed outputs were kept, nothing was half-written",
+            f"mrta: interrupted; {WHERE.get(args.command, 'completed outputs were kept')}; "
+            "nothing was half-written",
             file=sys.stderr,
         )
         return 130

@@ -145,3 +145,27 @@ def test_cli_resume_without_checkpoint_is_a_clean_error(tmp_path, capsys):
     code = main(["run", "paper", "--resume", "--out", str(tmp_path)])
     err = capsys.readouterr().err
     assert code == 2 and "no checkpoint to resume from" in err and err.count("\n") == 1
+
+
+def test_ctrl_c_stops_cleanly_and_says_where_to_resume(tmp_path, capsys, monkeypatch):
+    calls = {"n": 0}
+    real = ck.save_checkpoint
+
+    def save_then_interrupt(path, arrays, meta):
+        real(path, arrays, meta)
+        calls["n"] += 1
+        if calls["n"] == 5:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr("scenarios.protocol.save_checkpoint", save_then_interrupt)
+    out = tmp_path / "run"
+    code = main(["run", "paper", "--allocator", "ql", "--checkpoint", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 130
+    assert "--resume" in err and err.count("\n") == 1
+    assert not (out / "metrics.json").exists()
+    monkeypatch.setattr("scenarios.protocol.save_checkpoint", real)
+    assert main(["run", "paper", "--allocator", "ql", "--resume", "--out", str(out)]) == 0
+    straight = tmp_path / "straight"
+    assert main(["run", "paper", "--allocator", "ql", "--out", str(straight)]) == 0
+    assert (out / "metrics.json").read_bytes() == (straight / "metrics.json").read_bytes()

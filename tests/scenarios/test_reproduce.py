@@ -82,3 +82,34 @@ def test_fig2_lines_are_the_trace():
 def test_parallel_equals_serial():
     specs = [RunSpec("paper", a, seed=s) for a in ("ql", "expt") for s in (0, 1)]
     assert run_many(specs, workers=2, progress=False) == run_many(specs, workers=1, progress=False)
+
+
+def test_tradeoff_points_are_drawn_from_the_data(reproduced):
+    from scenarios.figures import fig_tradeoff
+    from scenarios.reproduce import _tradeoff_point
+
+    _, m = reproduced
+    points = m["tradeoff"]["points"]
+    refs = {a: _tradeoff_point(None, m["allocators"][a]) for a in ("market", "ql")}
+    fig = fig_tradeoff(points, refs)
+    line = next(ln for ln in fig.axes[0].get_lines() if ln.get_gid() == "expt")
+    assert np.allclose(line.get_xdata(), [p["space"] for p in points])
+    assert np.allclose(line.get_ydata(), [p["all"] for p in points])
+    du = sorted(p["delta_u"] for p in points)
+    assert du == [p["delta_u"] for p in points]  # sorted by the threshold
+    default = next(p for p in points if p["delta_u"] == 0.08)
+    assert default["all"] == m["allocators"]["expt"]["completion"]["overall"]["all"]
+
+
+def test_stream_file_replays_the_same_tasks(tmp_path, capsys):
+    stream = tmp_path / "stream.csv"
+    assert main(["stream", "paper", "--seed", "3", "--out", str(stream)]) == 0
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert main(["run", "paper", "--allocator", "market", "--seed", "3", "--out", str(a)]) == 0
+    assert (
+        main(["run", "paper", "--allocator", "market", "--stream", str(stream), "--out", str(b)])
+        == 0
+    )
+    ma = json.loads((a / "metrics.json").read_text())["allocators"]["market"]
+    mb = json.loads((b / "metrics.json").read_text())["allocators"]["market"]
+    assert ma["completion"] == mb["completion"] and ma["tasks"] == mb["tasks"]

@@ -130,3 +130,26 @@ def test_soak_short():
     assert result["tasks_failed"] == 0
     assert result["max_overlap_m"] <= 0.01
     assert result["rss_growth_mib"] < 50
+
+
+def test_run_figure_is_the_task_table():
+    from scenarios.figures import fig_run_spatial
+    from scenarios.protocol import RunSpec, execute
+
+    out = execute(RunSpec("paper_spatial", "market", "distance", 0, SHORT), task_table=True)
+    table = out["task_table"]
+    assert len(table["task"]) == out["tasks"]["allocated"]
+    fig = fig_run_spatial(table, out["spatial"], "distance")
+    scatter = next(c for ax in fig.axes for c in ax.collections if c.get_gid() == "estimate")
+    ok = np.asarray(table["ok"])
+    assert np.allclose(
+        scatter.get_offsets(), np.column_stack([table["bid"], table["distance_m"]])[ok]
+    )
+    bars = {
+        p.get_x() + p.get_width() / 2: p.get_height()
+        for ax in fig.axes
+        for p in ax.patches
+        if p.get_gid() == "distance"
+    }
+    assert sum(bars.values()) == pytest.approx(sum(table["distance_m"]))
+    assert sum(table["distance_m"]) == pytest.approx(out["spatial"]["distance_m"])

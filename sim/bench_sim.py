@@ -6,6 +6,12 @@ is sent to a random site, as an allocator would, so the measured loop is physics
 planning, task bookkeeping, contact sampling and trajectory recording. The bare loop then steps the
 very same space (same bodies, joints and contacts) with nothing around it. Both are timed in the
 same process, one after the other, so ``bare_ratio`` is a ratio measured in one run.
+
+The space sets its solver iterations by the contacts (``sim.contacts``: one iteration while no
+contact touches, which is exact then, ten while one does), and the bare loop steps it as it is,
+with ``Space.step``. For comparison with a space left at pymunk's defaults, the bare loop is timed
+once more with ten iterations throughout (``bare10_steps_per_s``), and ``contact_share`` is the
+share of the loop's physics steps that ended with a contact touching.
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ import time
 
 import numpy as np
 
+import sim.contacts
 from sim.physics import PymunkWorld
 from sim.recording import TrajectoryRecorder
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
@@ -93,9 +100,11 @@ def bench_sim(
         control_hz: control rate (physics runs at 60 Hz).
 
     Returns:
-        ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s"}}``: physics steps
-        of the full loop per wall second, simulated / wall seconds, full-loop time per step over
-        bare ``space.step`` time per step, and the bare loop's steps per second.
+        ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s",
+        "bare10_steps_per_s", "contact_share"}}``: physics steps of the full loop per wall
+        second, simulated / wall seconds, full-loop time per step over bare ``space.step`` time
+        per step, the bare loop's steps per second (as the world sets the space, and with ten
+        solver iterations throughout) and the share of loop steps with a contact touching.
     """
     rng = np.random.default_rng(0) if rng is None else rng
     out = {}
@@ -115,20 +124,34 @@ def bench_sim(
         )
         world.reset(rng)
         _run(world, min(2.0, sim_s), rng)  # warm-up: first paths and distance fields
+        touching0 = world.contacts.steps_touching
         steps, wall = _run(world, world.time_s + sim_s, rng)
-        bare_n = max(60, steps // 4)
-        step, dt = world.space.step, world.dt_s
-        t0 = time.perf_counter()
-        for _ in range(bare_n):
-            step(dt)
-        bare = (time.perf_counter() - t0) / bare_n
+        share = (world.contacts.steps_touching - touching0) / steps
+        bare = _bare(world, max(60, steps // 4))
+        free = sim.contacts.FREE_ITERATIONS
+        try:  # the same with pymunk's default solver iterations throughout
+            sim.contacts.FREE_ITERATIONS = world.space.iterations = 10
+            bare10 = _bare(world, max(60, steps // 4))
+        finally:
+            sim.contacts.FREE_ITERATIONS = free
         out[str(n)] = {
             "steps_per_s": steps / wall,
-            "rtf": steps * dt / wall,
+            "rtf": steps * world.dt_s / wall,
             "bare_ratio": (wall / steps) / bare,
             "bare_steps_per_s": 1.0 / bare,
+            "bare10_steps_per_s": 1.0 / bare10,
+            "contact_share": share,
         }
     return out
+
+
+def _bare(world: PymunkWorld, n: int) -> float:
+    """Seconds per bare ``space.step`` over ``n`` steps of the world's space."""
+    step, dt = world.space.step, world.dt_s
+    t0 = time.perf_counter()
+    for _ in range(n):
+        step(dt)
+    return (time.perf_counter() - t0) / n
 
 
 if __name__ == "__main__":

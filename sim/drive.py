@@ -1,14 +1,17 @@
-"""Differential drive: pymunk motors and wheel-limited path following for arrays of robots.
+"""Differential drive: pymunk motors and the wheel-limited controller, for arrays of robots.
 
 A differential-drive robot turns its wheels at rim speeds u_r, u_l (m/s); its body moves at
 v = (u_r + u_l) / 2 along its heading and turns at omega = (u_r - u_l) / b, never sideways. The
-controller aims each robot at the current waypoint of its path, slows down for corners, for the
-final goal and for the robot in front, and returns the (v, omega) command after the wheel-speed
-limit (both wheels scaled, so the curvature is kept) and the wheel-acceleration limit.
+controller aims each robot at a point on its path (``sim.paths.PathFollower``), slows down for
+corners, for the final goal, for the robots around it and for obstacles it has been pushed close
+to, and returns the (v, omega) command after the wheel-speed limit (both wheels scaled, so the
+curvature is kept) and the wheel-acceleration limit (braking first: a robot that must slow down
+gets its full deceleration and turns with what the wheels have left).
 
-Everything is numpy over the robot axis. Points and headings are complex numbers (x + iy and
-e^{i theta}): one complex multiply rotates a vector into a robot's frame, which keeps the hot loop
-short.
+Everything is numpy over the robot axis, with as few array operations per control period as the
+law allows: for small teams the per-call overhead of numpy, not the arithmetic, is the cost.
+Points and headings are complex numbers (x + iy and e^{i theta}): one complex multiply rotates a
+vector into a robot's frame. Wheel state is kept as (v, q = omega b / 2): rim speeds v +- q.
 
 :class:`Motors` puts the robots into a pymunk space. Each robot is a dynamic circle; a kinematic
 *control body* per robot is joined to it by a PivotJoint and a GearJoint with ``max_bias = 0`` and
@@ -17,7 +20,8 @@ body's, as hard as the tyres allow, while contacts push back. For a command (v, 
 one control period the control body sits at the instantaneous centre of rotation, turning at omega,
 and the pivot's anchor on it is the robot centre: that anchor moves at v along the robot's heading
 at every physics step, so a robot drives exact arcs and never slides sideways unless something
-pushes harder than its tyres grip.
+pushes harder than its tyres grip. Poses are read and commands written for all bodies at once
+through one ``pymunk.batch`` buffer, viewed as a structured numpy array.
 """
 
 from __future__ import annotations
@@ -25,30 +29,38 @@ from __future__ import annotations
 import numpy as np
 import pymunk
 import pymunk.batch as pb
+from pymunk._chipmunk_cffi import ffi, lib
 from scipy.spatial import cKDTree
 
 from sim.scenario import DriveSpec
 
 HEADING_GAIN = 2.5  # 1/s: omega command per radian of heading error
 TURN_IN_PLACE_RAD = np.pi / 3  # beyond this heading error the robot stops and turns
-WAYPOINT_SWITCH_M = 0.2  # aim at the next waypoint once this close to the current one
 CREEP_MPS = 0.15  # closing speed still allowed on contact: robots may nudge, never ram
 KEEP_RIGHT_M = 0.6  # gap below which a robot turns right around a robot not going its way
 KEEP_RIGHT_GAIN = 0.25  # that turn, as a share of the top turn rate
-PROXIMITY_DECEL = 0.35  # share of the braking power planned for: the robot ahead may close in too
+PROXIMITY_DECEL = 0.75  # share of the wheels' braking power planned for around robots and walls
+REACT_PERIODS = 1.0  # a command holds for this many control periods before the next can brake
 DENSE_MAX = 64  # up to this many robots the neighbour search is one (m, m) array
 NEIGHBOURS = 8  # beyond DENSE_MAX: the nearest robots a KD-tree returns per robot
 AHEAD_DEG = 70.0  # a robot within this angle of the direction of travel is in the way
+ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
 _COS_TURN = float(np.cos(TURN_IN_PLACE_RAD))
 _COS_AHEAD = float(np.cos(np.radians(AHEAD_DEG)))
-_WHEEL_SIGN = np.array([[1.0], [-1.0]])  # right, left wheel: u = v +- omega b / 2
-ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
 _IO = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
 _IO |= pb.BodyFields.ANGULAR_VELOCITY  # 6 floats per body: x, y, angle, vx, vy, omega
+# the same 6 floats as one record: position and velocity as complex numbers
+BODY = np.dtype([("z", np.complex128), ("th", np.float64), ("vel", np.complex128), ("w", float)])
 
 
 class Motors:
     """Robot bodies and their motor joints in a pymunk space, with batched pose I/O.
+
+    The ``pymunk.batch`` calls go straight through pymunk's cffi library with descriptors built
+    once, and the numpy views of the buffer are kept while the buffer stays where it is: a read
+    or a write is one pass over the bodies in C and no Python allocation. This uses pymunk's
+    cffi handles (``Space._space``, ``Constraint._constraint``, the ``Buffer`` arrays) the way
+    ``pymunk.batch`` itself does; written against pymunk 7.3.
 
     Args:
         space: the space to add the robots to (add nothing else dynamic or kinematic after).
@@ -64,11 +76,15 @@ class Motors:
         force_n = drive.mass_kg * drive.traction_mps2
         moment = pymunk.moment_for_circle(drive.mass_kg, 0.0, drive.radius_m)
         self.bodies, self.pivots, controls = [], [], []
-        for xy in np.asarray(starts, dtype=float):
+        starts = np.asarray(starts, dtype=float)
+        for xy in starts:  # robots first, then their control bodies: two runs of buffer rows
             body = pymunk.Body(drive.mass_kg, moment)
             body.position = tuple(xy)
             shape = pymunk.Circle(body, drive.radius_m)
             shape.friction, shape.elasticity, shape.collision_type = 0.3, 0.0, collision_type
+            space.add(body, shape)
+            self.bodies.append(body)
+        for xy, body in zip(starts, self.bodies, strict=True):
             ctrl = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             ctrl.position = tuple(xy)
             pivot = pymunk.PivotJoint(ctrl, body, (0.0, 0.0), (0.0, 0.0))
@@ -76,8 +92,7 @@ class Motors:
             pivot.max_bias = gear.max_bias = 0.0  # match velocities only: no spring back
             pivot.max_force = force_n
             gear.max_force = force_n * drive.wheel_base_m / 2.0  # torque of the wheel pair
-            space.add(body, shape, ctrl, pivot, gear)
-            self.bodies.append(body)
+            space.add(ctrl, pivot, gear)
             self.pivots.append(pivot)
             controls.append(ctrl)
         self.buf_ = pb.Buffer()
@@ -86,37 +101,77 @@ class Motors:
         row = {int(i): k for k, i in enumerate(ids)}
         self.rob_ = _rows([row[b.id] for b in self.bodies])
         self.ctl_ = _rows([row[b.id] for b in controls])
+        if not (isinstance(self.rob_, slice) and isinstance(self.ctl_, slice)):
+            raise RuntimeError("robots and control bodies must be runs of batch buffer rows")
         self.anchor_ = np.zeros(len(self.bodies))
+        self.radius_ = np.zeros(len(self.bodies))
+        self.anchor_list_ = [0.0] * len(self.bodies)
+        self.cp_pivots_ = [p._constraint for p in self.pivots]
+        self.get_, self.set_ = ffi.new("pmBatchedData *"), ffi.new("pmBatchedData *")
+        for d in (self.get_, self.set_):
+            d.fields = _IO.value
+            d.floatArray, d.intArray = self.buf_._float_arr, self.buf_._int_arr
+        self.get_fn_ = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
+        self.set_fn_ = ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched")
+        self.ptr_, self.num_ = None, -1
 
     def read(self) -> np.ndarray:
-        """(bodies, 6) x, y, angle, vx, vy, omega of every body in the space: a writable view
-        of the batch buffer, valid until the next read. Robot rows: ``self.rob_``."""
-        self.buf_.clear()
-        pb.get_space_bodies(self.space, _IO, self.buf_)
-        return np.frombuffer(self.buf_.float_buf()).reshape(-1, 6)
+        """(m,) :data:`BODY` records (z, th, vel, w) of the robots: a view of the batch buffer,
+        valid until the next read. ``flat`` views the same robots as (m, 6) floats."""
+        arr = self.buf_._float_arr
+        arr.num = 0
+        lib.cpSpaceEachBody(self.space._space, self.get_fn_, self.get_)
+        if arr.arr != self.ptr_ or arr.num != self.num_:  # the buffer moved: new views
+            self.ptr_, self.num_ = arr.arr, arr.num
+            raw = np.frombuffer(self.buf_.float_buf(), dtype=BODY)
+            flat = raw.view(np.float64).reshape(-1, 6)
+            self.rob, self.ctl, self.flat = raw[self.rob_], raw[self.ctl_], flat[self.rob_]
+            self.ctl_flat = flat[self.ctl_].reshape(-1)  # x, y, th, vx, vy, w of each in turn
+        return self.rob
 
-    def write(self, raw, z, th, h, v_mps, omega_radps) -> None:
+    def write(self, z, th, h, v_mps, omega_radps) -> None:
         """Command every robot to drive at (v, omega) until the next write.
 
         On an arc the control body sits at the centre of rotation z + i R h, R = v / omega,
         turns at omega and carries the pivot anchor (0, -R): that anchor is the robot centre.
-        Straight (or turning in place) it sits on the robot and moves at v h. Robot rows of
-        ``raw`` (the last :meth:`read`) are written back unchanged.
+        Straight (or turning in place) it sits on the robot and moves at v h. Robot rows of the
+        buffer (the last :meth:`read`) are written back unchanged.
         """
         v, w = v_mps, omega_radps
-        arc = np.abs(v) < ARC_MAX_RADIUS_M * np.abs(w)
-        radius = np.divide(v, w, out=np.zeros_like(v), where=arc)
-        centre = z + 1j * radius * h
-        vel = (v * ~arc) * h
-        ctl = raw[self.ctl_]  # a view when the control bodies are contiguous rows
-        ctl[:, 0], ctl[:, 1], ctl[:, 2] = centre.real, centre.imag, th
-        ctl[:, 3], ctl[:, 4], ctl[:, 5] = vel.real, vel.imag, w
-        if not isinstance(self.ctl_, slice):
-            raw[self.ctl_] = ctl
-        for j in (self.anchor_ != radius).nonzero()[0].tolist():
-            self.pivots[j].anchor_a = (0.0, -float(radius[j]))
-        self.anchor_ = radius
-        pb.set_space_bodies(self.space, _IO, self.buf_)
+        arc = np.abs(v) < np.abs(w) * ARC_MAX_RADIUS_M
+        radius = self.radius_
+        radius.fill(0.0)
+        np.divide(v, w, out=radius, where=arc)
+        ctl = self.ctl
+        ctl["z"] = radius * (1j * h) + z
+        ctl["th"] = th
+        ctl["vel"] = (v - w * radius) * h  # zero on an arc: the control body only turns
+        ctl["w"] = w
+        changed = (self.anchor_ != radius).nonzero()[0]
+        if changed.size:
+            pivots, set_anchor = self.cp_pivots_, lib.cpPivotJointSetAnchorA
+            for j, r in zip(changed.tolist(), (-radius[changed]).tolist(), strict=True):
+                set_anchor(pivots[j], (0.0, r))
+        self.radius_, self.anchor_ = self.anchor_, radius
+        arr = self.buf_._float_arr
+        num, arr.num = arr.num, 0  # the setter walks the buffer from its start
+        lib.cpSpaceEachBody(self.space._space, self.set_fn_, self.set_)
+        arr.num = num
+
+    def write_rows(self, rows: list, radii: list) -> None:
+        """:meth:`write` with the control bodies' states already computed: x, y, angle, vx, vy,
+        omega of each robot in turn (one flat list) and one arc radius per robot (the scalar
+        path of a small team)."""
+        self.ctl_flat[:] = rows
+        pivots, set_anchor, old = self.cp_pivots_, lib.cpPivotJointSetAnchorA, self.anchor_list_
+        for j, r in enumerate(radii):
+            if r != old[j]:
+                set_anchor(pivots[j], (0.0, -r))
+        self.anchor_list_ = radii
+        arr = self.buf_._float_arr
+        num, arr.num = arr.num, 0  # the setter walks the buffer from its start
+        lib.cpSpaceEachBody(self.space._space, self.set_fn_, self.set_)
+        arr.num = num
 
 
 def _rows(rows: list[int]) -> slice | np.ndarray:
@@ -142,78 +197,141 @@ class DiffDriveController:
         self.v_max_mps = self.rim_max_mps
         self.omega_max_radps = self.rim_max_mps / self.half_base_m
         self.brake_mps2 = 0.5 * drive.max_wheel_accel_radps2 * drive.wheel_radius_m
+        self.radius_m = drive.radius_m
         self.contact_m = 2.0 * drive.radius_m
-        self.yield_mps2 = PROXIMITY_DECEL * drive.max_wheel_accel_radps2 * drive.wheel_radius_m
-        self.look_m = self.contact_m + self.v_max_mps**2 / (2.0 * self.yield_mps2)
+        a = self.yield_mps2 = PROXIMITY_DECEL * drive.max_wheel_accel_radps2 * drive.wheel_radius_m
+        t = self.react_s = REACT_PERIODS * control_dt_s
+        stop_m = self.v_max_mps * t + self.v_max_mps**2 / (2.0 * a)
+        self.look_m = self.contact_m + 2.0 * stop_m  # farther apart, no speed cap can bind
         self.keep_right_m = self.contact_m + KEEP_RIGHT_M
+        # v = v_max * clip((cos(err) - cos_turn) / (1 - cos_turn), 0, 1) as one affine map
+        self.align_gain_ = self.v_max_mps / (1.0 - _COS_TURN)
+        self.align_bias_ = -_COS_TURN * self.align_gain_
+        self.at_, self.at2_, self.inv2a_ = a * t, (a * t) ** 2, 0.5 / a
+        self.wheel_decel_ = drive.max_wheel_accel_radps2 * drive.wheel_radius_m
         self.rows_ = np.zeros(0, dtype=int)
+        self.diag_ = np.zeros((0, 0))
 
     def steer(
-        self, z: np.ndarray, h: np.ndarray, target: np.ndarray, corner_mps: np.ndarray
+        self, hc: np.ndarray, delta: np.ndarray, gap_m: np.ndarray, corner2: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Desired (v, omega) that take each robot toward its target, before the limits.
 
         Args:
-            z: (m,) positions x + iy, m.
-            h: (m,) unit headings e^{i theta}.
-            target: (m,) current waypoints x + iy.
-            corner_mps: (m,) speed allowed when passing the waypoint (0 at the goal).
+            hc: (m,) conjugate unit headings e^{-i theta}.
+            delta: (m,) aim point minus position (x + iy), m.
+            gap_m: (m,) distance to the waypoint, m (the robot brakes to reach it at the corner
+                speed).
+            corner2: (m,) squared speed allowed when passing the waypoint (0 at the goal).
         """
-        delta = target - z
-        local = delta * h.conj()
+        local = delta * hc
         err = np.arctan2(local.imag, local.real)
-        align = np.minimum(np.maximum((np.cos(err) - _COS_TURN) / (1.0 - _COS_TURN), 0.0), 1.0)
-        stop = np.sqrt(corner_mps * corner_mps + 2.0 * self.brake_mps2 * np.abs(delta))
-        return np.minimum(self.v_max_mps * align, stop), HEADING_GAIN * err
+        v = np.cos(err)
+        v *= self.align_gain_
+        v += self.align_bias_
+        np.maximum(v, 0.0, out=v)
+        stop = gap_m * (2.0 * self.brake_mps2)
+        stop += corner2
+        np.minimum(v, np.sqrt(stop, out=stop), out=v)
+        err *= HEADING_GAIN
+        return v, err
+
+    def _cap(self, share: np.ndarray, tau: np.ndarray) -> np.ndarray:
+        """Top speed that covers at most ``share`` toward an obstacle at bearing cosine ``tau``
+        (> 0) when held for the reaction time and then braked at ``yield_mps2``; at least the
+        creep speed toward it."""
+        cap = share / tau
+        cap *= 1.0 / self.inv2a_
+        cap += self.at2_
+        np.sqrt(cap, out=cap)
+        cap -= self.at_
+        return np.maximum(cap, CREEP_MPS / tau, out=cap)
 
     def proximity(
-        self, z: np.ndarray, h: np.ndarray, v_mps: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Cap each robot's speed so that it can stop before touching any other robot.
+        self, z: np.ndarray, hc: np.ndarray, v_mps: np.ndarray, v_prev_mps: np.ndarray
+    ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, float]:
+        """Cap each robot's speed so that it and the robots around it can stop before touching.
 
-        The part of the robot's velocity that points at a neighbour is capped by the gap to it
-        (a braking profile that ends at ``CREEP_MPS`` on contact); moving sideways or away is
-        free, so robots slide past each other but never ram: pymunk finds contacts only once
-        shapes overlap, so the closing speed at contact sets the overlap. The nearest robot within
-        ``AHEAD_DEG`` of the direction of travel is reported as the one in the way.
+        For each neighbour in front (bearing cosine tau > 0) a robot keeps a share s of the gap
+        g to it: g less the neighbour's own stopping distance if it comes closer, but never less
+        than g / 2 (a neighbour that closes in brakes too); g plus the distance the neighbour
+        needs to stop if it moves away (braking at the wheels' limit: a leader that brakes hard
+        still leaves that much). Driving at v for one control period T and then braking at
+        ``yield_mps2`` = a
+        covers tau (v T + v^2 / 2a) toward the neighbour, so v <= a (sqrt(T^2 + 2 s / (a tau))
+        - T). On contact ``CREEP_MPS`` of closing speed is left: robots may nudge, never ram
+        (pymunk finds contacts once shapes overlap, so the closing speed at contact sets the
+        overlap). Moving sideways or away is free. The nearest robot within ``AHEAD_DEG`` of the
+        direction of travel is reported as the one in the way.
 
         Args:
-            z: (m,) positions x + iy; h: (m,) unit headings; v_mps: (m,) speed commands.
+            z: (m,) positions x + iy; hc: (m,) conjugate unit headings; v_mps: (m,) speed
+                commands; v_prev_mps: (m,) speeds commanded in the last period.
 
         Returns:
-            (m,) capped speeds, (m,) index of the nearest robot ahead (-1: none) and (m,) its
-            centre distance (inf: none).
+            (m,) capped speeds, (m,) index of the nearest robot ahead (-1: none), (m,) its
+            centre distance (inf: none) and the least distance between two robots (0 when not
+            known: beyond ``DENSE_MAX`` robots). When that distance is more than ``look_m`` no
+            cap binds and the three arrays are None.
         """
         m = len(v_mps)
         if m < 2:
-            return v_mps, np.full(m, -1), np.full(m, np.inf)
-        travel = h * np.sign(v_mps)
+            return None, None, None, np.inf
         if m <= DENSE_MAX:
-            rel = (z[None, :] - z[:, None]) * travel.conj()[:, None]
-            ok, cols = True, None
+            rel = z - z[:, None]  # rel[i, k]: from robot i to robot k
+            dist = np.abs(rel)
+            np.maximum(dist, 1e-9, out=dist)
+            dist += self.diag_inf(m)  # a robot is infinitely far from itself
+            apart = float(dist.min())
+            if apart > self.look_m:
+                return None, None, None, apart
+            rel *= hc[:, None]
+            cos = rel.real / dist  # bearing cosine of k from i's heading
+            back = cos * v_prev_mps[:, None]  # how fast i comes closer to k
+            back = back.T  # ... and k to i
+            cols = None
         else:
             xy = np.column_stack([z.real, z.imag])
             k = min(m, NEIGHBOURS + 1)
-            _, idx = cKDTree(xy).query(xy, k=k, distance_upper_bound=self.look_m)
-            ok = idx[:, 1:] < m  # column 0 is the robot itself; misses are reported as m
+            dist, idx = cKDTree(xy).query(xy, k=k, distance_upper_bound=self.look_m)
+            dist = np.maximum(dist[:, 1:], 1e-9)  # column 0 is the robot itself; misses: inf
             cols = np.minimum(idx[:, 1:], m - 1)
-            rel = (z[cols] - z[:, None]) * travel.conj()[:, None]
-        dist = np.abs(rel)
-        toward = np.where(ok, rel.real, 0.0) / np.maximum(dist, 1e-9)  # cos of the bearing
-        gap = np.maximum(dist - self.contact_m, 0.0)
-        cap = np.sqrt(2.0 * self.yield_mps2 * gap) + CREEP_MPS
-        limit = np.where(toward > 0.0, cap / np.maximum(toward, 1e-9), np.inf).min(axis=1)
+            rel = z[cols] - z[:, None]
+            cos = (rel * hc[:, None]).real / dist
+            back = (-rel * hc[cols]).real / dist * v_prev_mps[cols]
+            apart = 0.0
+        toward = cos * np.sign(v_mps)[:, None]
+        gap = dist - self.contact_m
+        np.maximum(gap, 0.0, out=gap)
+        away = np.minimum(back, 0.0)  # k moves away: it would brake over away^2 / 2 a_wheel
+        np.maximum(back, 0.0, out=back)
+        their = back * self.inv2a_
+        their += self.react_s
+        their *= back
+        their -= away * away * (0.5 / self.wheel_decel_)
+        share = np.minimum(their, 0.5 * gap, out=their)
+        np.subtract(gap, share, out=share)
+        tau = np.maximum(toward, 1e-9)  # behind or beside: tau tiny, the cap never binds
+        limit = self._cap(share, tau).min(axis=1)
         ahead = np.where(toward > _COS_AHEAD, dist, np.inf)
-        rows = self._rows(m)
         k = ahead.argmin(axis=1)
-        near = ahead[rows, k]
+        near = ahead[self._rows(m), k]
         if cols is not None:
-            k = cols[rows, k]
+            k = cols[self._rows(m), k]
         blocker = np.where(near < np.inf, k, -1)
-        return np.maximum(np.minimum(v_mps, limit), -limit), blocker, near
+        return np.maximum(np.minimum(v_mps, limit), -limit), blocker, near, apart
+
+    def wall_cap(self, hc: np.ndarray, v_mps: np.ndarray, to_wall: np.ndarray) -> np.ndarray:
+        """Speed caps (like :meth:`proximity`, obstacles standing still) for robots whose
+        nearest obstacle point is ``to_wall`` away (x + iy, from the robot centre)."""
+        dist = np.abs(to_wall)
+        tau = (to_wall * hc).real / np.maximum(dist, 1e-12) * np.sign(v_mps)
+        tau = np.maximum(tau, 1e-9)
+        cap = self._cap(np.maximum(dist - self.radius_m, 0.0), tau)
+        return np.maximum(np.minimum(v_mps, cap), -cap)
 
     def keep_right(
-        self, h: np.ndarray, w_radps: np.ndarray, blocker: np.ndarray, near: np.ndarray, moving
+        self, th: np.ndarray, w_radps: np.ndarray, blocker: np.ndarray, near: np.ndarray, moving
     ) -> np.ndarray:
         """Turn right when the robot in the way is not going our way (oncoming or standing).
 
@@ -221,12 +339,14 @@ class DiffDriveController:
         a working one drives around it.
 
         Args:
-            h: (m,) unit headings; w_radps: (m,) turn commands; blocker, near: from
+            th: (m,) headings; w_radps: (m,) turn commands; blocker, near: from
                 :meth:`proximity`; moving: (m,) bool, robots that drive on their own.
         """
         other = np.maximum(blocker, 0)
-        same_way = moving[other] & ((h * h[other].conj()).real > 0.5)
-        veer = (blocker >= 0) & (near < self.keep_right_m) & ~same_way
+        same_way = np.cos(th - th[other]) > 0.5
+        same_way &= moving[other]
+        veer = near < self.keep_right_m  # near is finite only where there is a blocker
+        veer &= ~same_way
         return w_radps - veer * (KEEP_RIGHT_GAIN * self.omega_max_radps)
 
     def _rows(self, m: int) -> np.ndarray:
@@ -234,82 +354,51 @@ class DiffDriveController:
             self.rows_ = np.arange(m)
         return self.rows_
 
+    def diag_inf(self, m: int) -> np.ndarray:
+        """(m, m) zeros with inf on the diagonal (cached)."""
+        if len(self.diag_) != m:
+            self.diag_ = np.diag(np.full(m, np.inf))
+        return self.diag_
+
     def limit(
-        self, v_mps: np.ndarray, omega_radps: np.ndarray, rims: np.ndarray
+        self, v_mps: np.ndarray, omega_radps: np.ndarray, v0: np.ndarray, q0: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Apply the wheel-speed and wheel-acceleration limits to desired twists.
+
+        Each wheel's rim speed v +- q (q = omega b / 2) may change by ``rim_step_mps`` per
+        period. A robot that must slow down (|v| falls) takes its full deceleration first and
+        turns with what is left; otherwise each wheel goes as far toward its target as it may.
 
         Args:
             v_mps: (m,) desired forward speed.
             omega_radps: (m,) desired turn rate.
-            rims: (2, m) rim speeds (right, left) commanded in the last period, m/s.
+            v0, q0: (m,) v and q commanded in the last period, m/s.
 
         Returns:
-            (v, omega, rims) actually commanded.
+            (v, omega, q) actually commanded.
         """
-        want = v_mps + _WHEEL_SIGN * (omega_radps * self.half_base_m)
-        want /= np.maximum(np.abs(want).max(axis=0) / self.rim_max_mps, 1.0)
-        step = self.rim_step_mps
-        new = rims + np.minimum(np.maximum(want - rims, -step), step)
-        right, left = new
-        return 0.5 * (right + left), (right - left) / (2.0 * self.half_base_m), new
-
-
-class PathFollower:
-    """Waypoint lists of m robots in padded arrays, with the vectorised bookkeeping around them.
-
-    Args:
-        m: number of robots.
-        v_max_mps: top speed, used for the corner speeds.
-    """
-
-    def __init__(self, m: int, v_max_mps: float) -> None:
-        self.v_max_mps = v_max_mps
-        self.rows_ = np.arange(m)
-        self.points = np.zeros((m, 2), dtype=complex)  # (m, P) waypoints, padded with the last
-        self.last = np.full(m, -1)  # index of the final waypoint (-1: no path)
-        self.index = np.zeros(m, dtype=int)  # waypoint currently aimed at
-        self.after_m = np.zeros((m, 2))  # path length left after each waypoint
-        self.corner_mps = np.zeros((m, 2))  # speed allowed at each waypoint
-
-    def set_path(self, j: int, path: np.ndarray) -> None:
-        """Give robot j a path (P, 2) whose first point is where it is now."""
-        n = len(path)
-        if n > self.points.shape[1]:
-            grow = ((0, 0), (0, n - self.points.shape[1]))
-            self.points = np.pad(self.points, grow, mode="edge")
-            self.after_m = np.pad(self.after_m, grow)
-            self.corner_mps = np.pad(self.corner_mps, grow)
-        pts = path[:, 0] + 1j * path[:, 1]
-        seg = np.diff(pts)
-        after = np.concatenate([np.cumsum(np.abs(seg)[::-1])[::-1], [0.0]])
-        turn = seg[1:] * seg[:-1].conj()
-        cos_turn = turn.real / np.maximum(np.abs(turn), 1e-12)
-        corner = np.zeros(n)
-        corner[1:-1] = self.v_max_mps * np.clip(cos_turn, 0.0, 1.0) ** 2
-        self.points[j, :n], self.points[j, n:] = pts, pts[-1]
-        self.after_m[j, :n], self.after_m[j, n:] = after, 0.0
-        self.corner_mps[j, :n], self.corner_mps[j, n:] = corner, 0.0
-        self.last[j] = n - 1
-        self.index[j] = min(1, n - 1)
-
-    def clear(self, j: int) -> None:
-        self.last[j] = -1
-        self.index[j] = 0
-
-    def targets(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Advance past reached waypoints; (target, corner speed, path left) for every robot.
-
-        Args:
-            z: (m,) positions x + iy. Rows of robots without a path hold stale values.
-        """
-        idx = self.index
-        tgt = self.points[self.rows_, idx]
-        inward = tgt - self.points[self.rows_, idx - 1]
-        passed = ((z - tgt) * inward.conj()).real > 0.0  # beyond the waypoint's normal line
-        close = ((np.abs(tgt - z) < WAYPOINT_SWITCH_M) | passed) & (idx < self.last)
-        if np.count_nonzero(close):
-            idx = self.index = idx + close
-            tgt = self.points[self.rows_, idx]
-        left = np.abs(tgt - z) + self.after_m[self.rows_, idx]
-        return tgt, self.corner_mps[self.rows_, idx], left
+        s = self.rim_step_mps
+        q1 = omega_radps * self.half_base_m
+        over = np.abs(v_mps) + np.abs(q1)
+        over *= 1.0 / self.rim_max_mps
+        np.maximum(over, 1.0, out=over)  # the faster wheel at most at top speed
+        dv = v_mps / over
+        brake = np.abs(dv) < np.abs(v0)
+        dv -= v0
+        dq = q1 / over
+        dq -= q0
+        right = np.minimum(np.maximum(dv + dq, -s), s)  # each wheel on its own
+        left = np.minimum(np.maximum(dv - dq, -s), s)
+        if np.count_nonzero(brake):  # slowing down comes first: the turn gets what is left
+            np.minimum(np.maximum(dv, -s, out=dv), s, out=dv)
+            room = s - np.abs(dv)
+            np.minimum(np.maximum(dq, -room, out=dq), room, out=dq)
+            np.copyto(right, dv + dq, where=brake)
+            np.copyto(left, dv - dq, where=brake)
+        v = right + left
+        v *= 0.5
+        v += v0
+        q = right - left
+        q *= 0.5
+        q += q0
+        return v, q * (1.0 / self.half_base_m), q

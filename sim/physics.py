@@ -2,16 +2,37 @@
 
 One ``pymunk.Space`` (no gravity, SI units, fixed step ``dt_s``, collision slop in metres) holds
 the arena walls, the static obstacles and the robots, which ``sim.drive.Motors`` drives with motor
-joints (never by writing body velocities, which would discard the contact solution). Control runs
-at ``control_hz``: each period reads every pose with one ``pymunk.batch`` call, advances the
-robots' tasks (plan, drive, arrive, work, finish; stuck detection and recovery), computes wheel
-commands with numpy over the robot axis and writes them back with one batch call; then several
-``space.step`` calls run with no Python around them.
+joints (never by writing body velocities, which would discard the contact solution).
+
+What runs at which rate:
+
+- every physics step (``dt_s``, 60 Hz in the bundled scenarios): chipmunk's step and nothing
+  else while no contact touches (with one solver iteration, exact then); while one does, ten
+  iterations and one batched read of the contact depths (``sim.contacts``: that is how
+  ``contacts_max_overlap_m`` is the worst penetration of any step).
+- every control period (``1 / control_hz``): one batched read of all poses; odometry; for every
+  robot that drives or yields, path following and steering (``sim.paths``); progress; the wheel
+  limits and one batched write of every motor command; the trajectory recorder. Checks that
+  cannot fire yet are skipped until the earliest time they could: the proximity caps between
+  robots, keep-right and make-way until two robots could be within ``DiffDriveController.look_m``
+  of each other (beyond, no cap binds); the arrival check until a driving robot could be in its
+  arrival zone; the stuck check until the stalest robot could be stuck. The distance to the
+  nearest obstacle (and the speed cap toward it) is measured only for robots pushed beyond the
+  free width of their path or backing off without one. While no robot drives, yields or backs
+  off and every wheel has stopped, a period does only the recorder (with the poses it has) and
+  the task clock.
+- on events only (allocation, arrival, end of work, deadline, stuck, yield request, waypoint
+  reached): per-robot Python, planning, and the refresh of the scalar next-event times.
+
+The control period exists twice with the same formulas: over numpy arrays (``sim.jobs``,
+``sim.drive``), and robot by robot in plain Python for teams of up to ``SMALL_TEAM`` robots
+(``sim.small``), where numpy's per-call overhead would dominate; the tests run both.
 
 A task's robot plans a path to the site, drives, arrives within ``arrive_tol_m`` (or beside robots
 already standing at the site), works for the type's execution time and stays where it finished.
 A robot that makes no progress for ``stuck_timeout_s`` drives round the robot in its way or backs
-off on a random arc (from the world's generator) and replans; after ``max_recoveries`` tries, or
+off on a random arc (from the world's generator) and replans; one boxed in by a robot at work that
+will be done within ``stuck_timeout_s`` waits for it instead. After ``max_recoveries`` tries, or
 past its deadline, or if no path exists, the task is reported as a failed Completion with a reason.
 """
 
@@ -19,27 +40,23 @@ from __future__ import annotations
 
 import numpy as np
 import pymunk
-import pymunk.batch as pb
 
-from sim.drive import DiffDriveController, Motors, PathFollower
+from sim.contacts import ContactMonitor
+from sim.drive import DiffDriveController, Motors
+from sim.jobs import BACKOFF_S, SPEED_BOUND, YIELD_TRIGGER_M, JobsMixin, _xy
+from sim.paths import PathFollower
 from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import Scenario
+from sim.small import SMALL_TEAM, SmallTeamMixin
 from sim.tasks import Batch
 from sim.world import Completion, WorldState
 
 ROBOT, WALL = 1, 2  # pymunk collision types
-_GAP = pb.ArbiterFields.DISTANCE_1 | pb.ArbiterFields.DISTANCE_2
-BACKOFF_S = 1.5  # a stuck robot reverses on a random arc this long, then replans
-YIELD_TRIGGER_M = 0.3  # a driving robot this close (beyond contact) to an idle one asks it to move
-YIELD_STEP_M = 1.0  # how far an idle robot steps aside
-YIELD_TIMEOUT_S = 6.0
-DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
-PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
 WALL_THICKNESS_M = 1.0
 
 
-class PymunkWorld:
+class PymunkWorld(SmallTeamMixin, JobsMixin):
     """The pymunk world behind the :class:`sim.world.World` interface.
 
     Args:
@@ -48,8 +65,8 @@ class PymunkWorld:
 
     Attributes:
         planner: the :class:`GridPlanner` the distance and time cost models bid with.
-        contacts_max_overlap_m: deepest robot-robot or robot-wall penetration seen (sampled every
-            control period).
+        contacts_max_overlap_m: deepest robot-robot or robot-wall penetration at the end of any
+            physics step (measured after every step in which a contact touches).
         collisions_robot_, collisions_wall_: contacts begun between robots, robot and wall.
     """
 
@@ -66,6 +83,7 @@ class PymunkWorld:
         self.exec_time_s_ = np.asarray(scenario.exec_time_s, dtype=float)
         self.starts_ = np.array([r.start_xy for r in scenario.robots], dtype=float)
         self.reach_m_ = 2.0 * sp.drive.radius_m + 0.1  # centres closer than this are touching
+        self.small_ = scenario.n_robots <= SMALL_TEAM  # control periods in scalar Python
         self.reset(np.random.default_rng(0))
 
     def reset(self, rng: np.random.Generator) -> None:
@@ -83,10 +101,8 @@ class PymunkWorld:
             space.add(shape)
         self.motors = Motors(space, drive, self.starts_, ROBOT)
         self.robots_ = self.motors.bodies
-        space.on_collision(ROBOT, ROBOT, begin=self._hit_robot, separate=self._part)
-        space.on_collision(ROBOT, WALL, begin=self._hit_wall, separate=self._part)
+        self.contacts = ContactMonitor(space, ROBOT, WALL)
         self.space = space
-        self.abuf_ = pb.Buffer()
         self.steps_, self.goal_s_, self.last_ctrl_step_ = 0, 0.0, -1
         self.state_ = np.full(m, IDLE, dtype=np.int8)
         self.task_ = np.full(m, -1, dtype=np.int64)
@@ -96,38 +112,49 @@ class PymunkWorld:
         self.site_ = self.starts_ @ np.array([1.0, 1j])  # x + iy
         self.work_end_s_ = np.zeros(m)
         self.deadline_s_ = np.zeros(m)
-        self.odo_m_ = np.zeros(m)  # driven since the current task was allocated
+        self.odo0_m_ = np.zeros(m)  # moved_m_ when the current task was allocated
         self.left_m_ = np.zeros(m)  # planned path length still to drive
-        self.best_left_m_ = np.full(m, np.inf)
+        self.progress_m_ = np.full(m, np.inf)  # path left below this is progress (stuck clock)
         self.t_progress_s_ = np.full(m, np.inf)  # inf unless driving: min() finds the stalest
         self.next_end_s_ = self.next_deadline_s_ = np.inf  # earliest end of work, of deadline
-        self.n_backoff_ = self.n_yield_ = 0
+        self.stuck_check_s_ = self.site_check_s_ = self.prox_check_s_ = -np.inf
+        self.n_backoff_ = self.n_yield_ = self.n_steer_ = 0
+        self.resting_ = self.calm_ = True  # nothing steered and every wheel stopped (twice)
         self.recoveries_ = np.zeros(m, dtype=int)
         self.backoff_until_s_ = np.full(m, -np.inf)
         self.backoff_cmd_ = np.zeros((m, 2))
         self.replan_ = np.zeros(m, dtype=bool)
         self.yielding_ = np.zeros(m, dtype=bool)  # idle, stepping out of a driving robot's way
         self.yield_until_s_ = np.zeros(m)
-        self.rims_ = np.zeros((2, m))  # wheel rim speeds commanded last period, m/s
-        self.blocker_, self.near_ = np.full(m, -1), np.full(m, np.inf)
+        self.v_cmd_ = np.zeros(m)  # forward speed commanded last period, m/s
+        self.q_cmd_ = np.zeros(m)  # ... and half the rim speed difference: rims v +- q
+        self.nobody_ = np.full(m, -1), np.full(m, np.inf)  # no robot in the way of any
+        self.blocker_, self.near_ = self.nobody_
         self.last_z_ = self.site_.copy()
-        self.follower = PathFollower(m, sp.drive.max_wheel_speed_radps * sp.drive.wheel_radius_m)
+        self.last_th_ = np.zeros(m)
+        walls = [((0, 0), (sp.width_m, 0)), ((sp.width_m, 0), (sp.width_m, sp.height_m))]
+        walls += [((sp.width_m, sp.height_m), (0, sp.height_m)), ((0, sp.height_m), (0, 0))]
+        v_max = drive.max_wheel_speed_radps * drive.wheel_radius_m
+        self.follower = PathFollower(m, v_max, [*sp.obstacles, *walls], drive.radius_m)
         self.done_: list[Completion] = []
-        self.contacts_max_overlap_m = 0.0
-        self.collisions_robot_ = self.collisions_wall_ = self.failures_ = 0
-        self.touching_ = 0  # contacts begun and not yet separated: sample overlaps only then
+        self.failures_ = 0
         self.moved_m_ = np.zeros(m)  # driven since reset
 
-    def _hit_robot(self, arbiter, space, data) -> None:
-        self.collisions_robot_ += 1
-        self.touching_ += 1
+    @property
+    def contacts_max_overlap_m(self) -> float:
+        return self.contacts.max_overlap_m
 
-    def _hit_wall(self, arbiter, space, data) -> None:
-        self.collisions_wall_ += 1
-        self.touching_ += 1
+    @property
+    def collisions_robot_(self) -> int:
+        return self.contacts.robot_hits
 
-    def _part(self, arbiter, space, data) -> None:
-        self.touching_ -= 1
+    @property
+    def collisions_wall_(self) -> int:
+        return self.contacts.wall_hits
+
+    @property
+    def touching_(self) -> int:
+        return self.contacts.touching
 
     @property
     def time_s(self) -> float:
@@ -140,8 +167,8 @@ class PymunkWorld:
 
     def poses(self) -> tuple[np.ndarray, np.ndarray]:
         """Robot positions (m, 2) and headings (m,) now."""
-        rob = self.motors.read()[self.motors.rob_]
-        return rob[:, :2].copy(), rob[:, 2].copy()
+        rob = self.motors.read()
+        return self.motors.flat[:, :2].copy(), rob["th"].copy()
 
     def snapshot(self) -> WorldState:
         xy, _ = self.poses()
@@ -160,6 +187,7 @@ class PymunkWorld:
         xy, _ = self.poses()
         t, sp = self.time_s, self.spatial
         v_max = self.follower.v_max_mps
+        slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + BACKOFF_S) + 30.0
         for k in won.tolist():
             j = int(assignment[k])
             if self.task_[j] >= 0:
@@ -169,7 +197,7 @@ class PymunkWorld:
                 raise ValueError(f"task {int(batch.ids[k])} has no site: a spatial world needs one")
             self.task_[j], self.type_[j] = int(batch.ids[k]), int(batch.types[k])
             self.t_alloc_s_[j], self.bid_[j], self.site_[j] = t, float(bids[k]), complex(*site)
-            self.odo_m_[j], self.recoveries_[j], self.replan_[j] = 0.0, 0, False
+            self.odo0_m_[j], self.recoveries_[j], self.replan_[j] = self.moved_m_[j], 0, False
             self.backoff_until_s_[j] = -np.inf
             self.yielding_[j] = False
             self.follower.clear(j)
@@ -177,24 +205,22 @@ class PymunkWorld:
             if not len(path):
                 self._finish(j, t, False, f"unreachable: no path from {_xy(xy[j])} to {_xy(site)}")
                 continue
-            length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
-            self.follower.set_path(j, path)
+            length = self.follower.set_path(j, path)
             self.state_[j] = DRIVING
-            self.left_m_[j], self.best_left_m_[j], self.t_progress_s_[j] = length, np.inf, t
-            slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + BACKOFF_S) + 30.0
+            self.left_m_[j], self.progress_m_[j], self.t_progress_s_[j] = length, np.inf, t
             self.deadline_s_[j] = t + self.exec_time_s_[self.type_[j]] + 4 * length / v_max + slack
+        self.site_check_s_ = -np.inf
         self._events()
 
     def advance(self, duration_s: float) -> list[Completion]:
         self.goal_s_ += duration_s
         target = round(self.goal_s_ / self.dt_s)
-        k, dt, step = self.substeps, self.dt_s, self.space.step
+        k, dt, run = self.substeps, self.dt_s, self.contacts.run
         while self.steps_ < target:
             if self.steps_ % k == 0 and self.steps_ != self.last_ctrl_step_:
                 self._control()
             n = min(k - self.steps_ % k, target - self.steps_)
-            for _ in range(n):
-                step(dt)
+            run(n, dt)
             self.steps_ += n
         if self.steps_ % k == 0 and self.steps_ != self.last_ctrl_step_:
             self._control()
@@ -232,185 +258,68 @@ class PymunkWorld:
         """One control period: read poses, advance tasks, command the wheels, write, record."""
         self.last_ctrl_step_ = self.steps_
         t = self.time_s
-        raw = self.motors.read()
-        rob = raw[self.motors.rob_]
-        th = rob[:, 2]
-        z = rob[:, 0] + 1j * rob[:, 1]
+        if self.resting_ and not (self.n_steer_ or self.n_backoff_):
+            self._clock(t)  # nothing moves: poses, commands and caps are as they were
+            if self.recorder is not None:
+                z = self.last_z_
+                xy = np.column_stack([z.real, z.imag])
+                self.recorder.poses(t, xy, self.last_th_, self.state_)
+            return
+        if self.small_:
+            return self._control_small(t)
+        motors = self.motors
+        rob = motors.read()
+        z, th = rob["z"], rob["th"]
         h = np.exp(1j * th)
-        moved = np.abs(z - self.last_z_)
-        self.odo_m_ += moved
-        self.moved_m_ += moved
-        self.last_z_ = z
-        v, w = self._jobs(z, h, t)
-        v, blocker, near = self.controller.proximity(z, h, v)
+        hc = h.conj()
+        self.moved_m_ += np.abs(z - self.last_z_)
+        self.last_z_[:] = z
+        self.last_th_[:] = th
+        v, w = self._jobs(z, hc, t)
+        if t >= self.prox_check_s_:
+            self._near(z, th, h, hc, v, w, t)
+        else:
+            self.blocker_, self.near_ = self.nobody_
+        rows = self.off_path_
+        if self.n_backoff_:  # backing off blind, without a path: mind the obstacles too
+            back = (self.backoff_until_s_ > t).nonzero()[0]
+            rows = back if rows is None else np.union1d(rows, back)
+        if rows is not None and len(rows):
+            self._obstacle_caps(z, hc, v, rows)
+        v, w, self.q_cmd_ = self.controller.limit(v, w, self.v_cmd_, self.q_cmd_)
+        self.v_cmd_ = v
+        motors.write(z, th, h, v, w)
+        calm = not (self.n_steer_ or self.n_backoff_)
+        calm = calm and not (np.count_nonzero(v) or np.count_nonzero(w))
+        self.resting_, self.calm_ = calm and self.calm_, calm  # stopped for a whole period
+        if self.recorder is not None:
+            self.recorder.poses(t, motors.flat[:, :2], th, self.state_)
+
+    def _obstacle_caps(self, z, hc, v, rows) -> None:
+        """Cap the speed of robots ``rows`` toward their nearest obstacle (writes ``v``)."""
+        rows = np.asarray(rows)
+        gap = self.follower.to_obstacle(z[rows])
+        capped = self.controller.wall_cap(hc[rows], np.asarray(v)[rows], gap)
+        for j, vj in zip(rows.tolist(), capped.tolist(), strict=True):
+            v[j] = vj
+
+    def _near(self, z, th, h, hc, v, w, t: float) -> None:
+        """Proximity caps, keep-right and make-way (writes ``v``, ``w`` in place)."""
+        c = self.controller
+        cap, blocker, near, apart = c.proximity(z, hc, v, self.v_cmd_)
+        if cap is None:  # no cap binds before two robots could be look_m apart
+            gap = apart - c.look_m
+            self.prox_check_s_ = t + gap / (2.0 * SPEED_BOUND * c.v_max_mps)
+            self.blocker_, self.near_ = self.nobody_
+            return
+        v[:] = cap
         self.blocker_, self.near_ = blocker, near
-        if near.min(initial=np.inf) < self.controller.keep_right_m:
-            w = self.controller.keep_right(h, w, blocker, near, self.state_ == DRIVING)
-        pushing = (self.state_ == DRIVING) & (near < self.reach_m_ + YIELD_TRIGGER_M)
-        if np.count_nonzero(pushing):
+        closest = float(near.min())
+        if closest < c.keep_right_m:
+            w[:] = c.keep_right(th, w, blocker, near, self.state_ == DRIVING)
+        if closest < self.reach_m_ + YIELD_TRIGGER_M:
+            pushing = (self.state_ == DRIVING) & (near < self.reach_m_ + YIELD_TRIGGER_M)
             standing = (self.state_ == IDLE) & ~self.yielding_
             pushing &= standing[np.maximum(blocker, 0)]
-        if np.count_nonzero(pushing):
-            self._make_way(pushing.nonzero()[0], blocker, z, h, v, t)
-        v, w, self.rims_ = self.controller.limit(v, w, self.rims_)
-        self.motors.write(raw, z, th, h, v, w)
-        if self.touching_:
-            self.abuf_.clear()
-            pb.get_space_arbiters(self.space, _GAP, self.abuf_)
-            gaps = np.frombuffer(self.abuf_.float_buf())
-            if gaps.size:
-                overlap = -float(gaps.min())
-                self.contacts_max_overlap_m = max(self.contacts_max_overlap_m, overlap)
-        if self.recorder is not None:
-            self.recorder.poses(t, rob[:, :2], th, self.state_)
-
-    def _jobs(self, z: np.ndarray, h: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Advance every robot's task (arrive, work, finish, stuck, recover); desired twists.
-
-        Full-array numpy every period; the per-robot Python below runs only on events, which the
-        scalar next-event times let the common case skip.
-        """
-        sp = self.spatial
-        go = self.state_ == DRIVING
-        steered = go | self.yielding_ if self.n_yield_ else go
-        back = None
-        if self.n_backoff_:
-            back = go & (self.backoff_until_s_ > t)
-            for j in (self.replan_ & ~back).nonzero()[0].tolist():
-                self._replan(j, (z[j].real, z[j].imag), t)
-            go = (self.state_ == DRIVING) & ~back
-            steered = go | self.yielding_
-        if np.count_nonzero(steered):
-            tgt, corner, left = self.follower.targets(z)
-            v, w = self.controller.steer(z, h, tgt, corner)
-            v *= steered
-            w *= steered
-            self.left_m_ = left
-            if self.n_yield_:
-                stop = self.yielding_ & ((left < 0.15) | (self.yield_until_s_ < t))
-                for j in stop.nonzero()[0].tolist():
-                    self._stop_yield(j)
-                    v[j] = w[j] = 0.0
-            better = (left < self.best_left_m_ - PROGRESS_M) & go
-            np.putmask(self.best_left_m_, better, left)
-            np.putmask(self.t_progress_s_, better, t)
-            if t - self.t_progress_s_.min() > sp.stuck_timeout_s:
-                stuck = go & (t - self.t_progress_s_ > sp.stuck_timeout_s)
-                for j in stuck.nonzero()[0].tolist():
-                    self._recover(j, t)
-            gap = np.abs(self.site_ - z)
-            there = go & (gap <= sp.arrive_tol_m + 2 * self.reach_m_)
-            if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
-                queue = (there & (gap > sp.arrive_tol_m) & (self.near_ <= self.reach_m_)).nonzero()[
-                    0
-                ]
-                there &= gap <= sp.arrive_tol_m
-                if queue.size:  # touching a robot that stands nearer the site: the site is taken,
-                    # and working beside the robots already there counts as arrived
-                    still = (self.state_ != DRIVING) & ~self.yielding_
-                    nearer = np.abs(z[None, :] - self.site_[queue, None]) < gap[queue, None]
-                    touch = np.abs(z[None, :] - z[queue, None]) <= self.reach_m_
-                    there[queue] = (still & nearer & touch).any(axis=1)
-                for j in there.nonzero()[0].tolist():
-                    self.state_[j] = WORKING
-                    self.work_end_s_[j] = t + self.exec_time_s_[self.type_[j]]
-                    self.t_progress_s_[j] = np.inf
-                    self.follower.clear(j)
-                    v[j] = w[j] = 0.0
-                    self.next_end_s_ = min(self.next_end_s_, self.work_end_s_[j])
-        else:
-            v, w = np.zeros(len(z)), np.zeros(len(z))
-        if back is not None:
-            v[back], w[back] = self.backoff_cmd_[back].T
-        if t + 1e-9 >= self.next_end_s_:
-            self._finish_work(t)
-        if t > self.next_deadline_s_:
-            for j in ((self.task_ >= 0) & (self.deadline_s_ < t)).nonzero()[0].tolist():
-                self._finish(j, t, False, "timeout: task not finished by its deadline")
-        return v, w
-
-    def _finish_work(self, t: float) -> None:
-        for j in ((self.state_ == WORKING) & (self.work_end_s_ <= t + 1e-9)).nonzero()[0]:
-            self._finish(int(j), float(self.work_end_s_[j]), True)
-
-    def _make_way(self, pushers, blocker, z, h, v, t: float) -> None:
-        """Idle robots standing in a driving robot's way step aside (planning ignores robots)."""
-        for j in pushers.tolist():
-            b = int(blocker[j])
-            if self.yielding_[b]:  # asked by another robot in this period
-                continue
-            travel = h[j] if v[j] >= 0 else -h[j]
-            others = np.delete(z, b)
-            path = self.planner.side_step(z[b], z[j], travel, YIELD_STEP_M, others)
-            if len(path):
-                self.follower.set_path(b, path)
-                self.yielding_[b], self.yield_until_s_[b] = True, t + YIELD_TIMEOUT_S
-        self._events()
-
-    def _stop_yield(self, j: int) -> None:
-        self.yielding_[j] = False
-        self.follower.clear(j)
-        self._events()
-
-    def _events(self) -> None:
-        """Refresh the scalar next-event times after a task event."""
-        busy = self.task_ >= 0
-        work = self.state_ == WORKING
-        self.next_end_s_ = float(self.work_end_s_[work].min(initial=np.inf))
-        self.next_deadline_s_ = float(self.deadline_s_[busy].min(initial=np.inf))
-        backing = self.replan_ | (self.backoff_until_s_ > self.time_s)
-        self.n_backoff_ = int(np.count_nonzero(backing))
-        self.n_yield_ = int(np.count_nonzero(self.yielding_))
-
-    def _recover(self, j: int, t: float) -> None:
-        self.recoveries_[j] += 1
-        sp = self.spatial
-        if self.recoveries_[j] > sp.max_recoveries:
-            why = f"stuck: no progress for {sp.stuck_timeout_s:g} s after {sp.max_recoveries} tries"
-            return self._finish(j, t, False, why)
-        b, z = int(self.blocker_[j]), self.last_z_
-        if b >= 0 and self.near_[j] < self.reach_m_ + YIELD_TRIGGER_M and self.state_[b] != DRIVING:
-            travel = np.exp(1j * self.robots_[j].angle)
-            site = (self.site_[j].real, self.site_[j].imag)
-            others = np.delete(z, j)
-            path = self.planner.detour(z[j], z[b], travel, DETOUR_M, site, others)
-            if len(path):  # go round the robot that stands in the way
-                self.follower.set_path(j, path)
-                self.best_left_m_[j], self.t_progress_s_[j] = np.inf, t
-                return
-        c = self.controller
-        turn = self.rng_.uniform(-0.5, 0.5) * c.omega_max_radps
-        self.backoff_cmd_[j] = (-0.3 * c.v_max_mps, turn)
-        self.backoff_until_s_[j] = t + BACKOFF_S
-        self.t_progress_s_[j] = np.inf
-        self.replan_[j] = True
-        self.follower.clear(j)
-        self._events()
-
-    def _replan(self, j: int, xy: np.ndarray, t: float) -> None:
-        self.replan_[j] = False
-        path = self.planner.path(xy, (self.site_[j].real, self.site_[j].imag))
-        if not len(path):
-            self._finish(j, t, False, f"unreachable: no path from {_xy(xy)} after a recovery")
-            return
-        self.follower.set_path(j, path)
-        self.best_left_m_[j], self.t_progress_s_[j] = np.inf, t
-        self._events()
-
-    def _finish(self, j: int, t_done_s: float, ok: bool, reason: str = "") -> None:
-        task, t_alloc, bid = int(self.task_[j]), float(self.t_alloc_s_[j]), float(self.bid_[j])
-        self.done_.append(
-            Completion(task, j, t_alloc, t_done_s, bid, float(self.odo_m_[j]), ok, reason)
-        )
-        self.failures_ += not ok
-        self.task_[j] = -1
-        self.state_[j] = IDLE
-        self.replan_[j] = False
-        self.backoff_until_s_[j] = -np.inf
-        self.t_progress_s_[j] = np.inf
-        self.follower.clear(j)
-        self._events()
-
-
-def _xy(p) -> str:
-    return f"({float(p[0]):.2f}, {float(p[1]):.2f})"
+            if np.count_nonzero(pushing):
+                self._make_way(pushing.nonzero()[0], blocker, z, h, v, t)

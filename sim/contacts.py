@@ -1,0 +1,104 @@
+"""Stepping the pymunk space: contact counts, solver iterations that follow them, true overlap.
+
+:class:`ContactMonitor` registers begin/separate callbacks for robot-robot and robot-wall contacts
+and keeps ``touching``, the number of contacts touching now, and the contacts begun since reset.
+
+Solver iterations follow the contacts. While nothing touches, each robot is joined only to its own
+kinematic control body, whose mass is infinite, so the solver's constraints are independent of
+each other and one iteration solves each exactly: the result is the same, bit for bit, as with
+ten (``tests/sim/test_physics.py`` checks this). The moment a contact begins, in the begin
+callback, which pymunk calls during collision detection and so before that step's solver runs,
+the space switches to ``CONTACT_ITERATIONS``; when the last contact separates (again before the
+solver) it goes back to one.
+
+Overlap: pymunk reports a contact once shapes overlap, and a contact's depth after ``step`` is
+the penetration at the positions the step leaves (positions are integrated before collision
+detection; the solver then changes only velocities). So after every physics step in which a
+contact touches, :meth:`ContactMonitor.run` reads the depth of every contact with one batched
+call (``pymunk.batch`` arbiter field ``DISTANCE_1``: every contact here involves a circle and has
+one point; cached contacts that no longer touch report 0) and keeps the deepest:
+``max_overlap_m`` is the worst robot-robot or robot-wall penetration over every physics step of
+the run. Steps without a touching contact have no overlap and cost nothing extra.
+
+The world adds and removes nothing while it steps, so :meth:`ContactMonitor.run` calls
+chipmunk's step directly (``Space.step`` wraps it in bookkeeping for objects added or removed in
+callbacks) and the batched reads through pymunk's cffi library with descriptors built once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pymunk
+import pymunk.batch as pb
+from pymunk._chipmunk_cffi import ffi, lib
+
+CONTACT_ITERATIONS = 10  # solver iterations while any contact touches (pymunk's default)
+FREE_ITERATIONS = 1  # ... while none does: the motor joints are independent, one is exact
+
+
+class ContactMonitor:
+    """Counts contacts, sets the solver iterations and measures the deepest overlap.
+
+    Args:
+        space: the space; nothing may be added or removed while :meth:`run` steps it.
+        robot, wall: collision types of robot shapes and of walls and obstacles.
+    """
+
+    def __init__(self, space: pymunk.Space, robot: int, wall: int) -> None:
+        self.space = space
+        self.ptr_ = space._space
+        self.touching = 0  # contacts begun and not yet separated
+        self.robot_hits = self.wall_hits = 0  # contacts begun since reset
+        self.max_overlap_m = 0.0
+        self.steps_touching = 0  # physics steps that ended with a contact touching
+        space.on_collision(robot, robot, begin=self._begin_robot, separate=self._separate)
+        space.on_collision(robot, wall, begin=self._begin_wall, separate=self._separate)
+        lib.cpSpaceSetIterations(self.ptr_, FREE_ITERATIONS)
+        self.buf_ = pb.Buffer()
+        self.query_ = ffi.new("pmBatchedData *")
+        self.query_.fields = pb.ArbiterFields.DISTANCE_1.value
+        self.query_.floatArray, self.query_.intArray = self.buf_._float_arr, self.buf_._int_arr
+        self.query_fn_ = ffi.addressof(lib, "pmSpaceArbiterIteratorFuncBatched")
+        self.ptr_view_, self.view_ = None, np.zeros(0)
+
+    def _touch(self) -> None:
+        if not self.touching:
+            lib.cpSpaceSetIterations(self.ptr_, CONTACT_ITERATIONS)
+        self.touching += 1
+
+    def _begin_robot(self, arbiter, space, data) -> None:
+        self.robot_hits += 1
+        self._touch()
+
+    def _begin_wall(self, arbiter, space, data) -> None:
+        self.wall_hits += 1
+        self._touch()
+
+    def _separate(self, arbiter, space, data) -> None:
+        self.touching -= 1
+        if not self.touching:
+            lib.cpSpaceSetIterations(self.ptr_, FREE_ITERATIONS)
+
+    def run(self, n: int, dt_s: float) -> None:
+        """Take ``n`` physics steps of ``dt_s``, measuring the overlap after each that needs it."""
+        step, ptr = lib.cpSpaceStep, self.ptr_
+        for _ in range(n):
+            step(ptr, dt_s)
+            if self.touching:
+                self._measure()
+
+    def _measure(self) -> None:
+        arr = self.buf_._float_arr
+        arr.num = 0
+        lib.cpSpaceEachCachedArbiter(self.ptr_, self.query_fn_, self.query_)
+        self.steps_touching += 1
+        num = arr.num
+        if num <= 16:  # a few contacts: a Python list is quicker than numpy
+            deepest = -min(ffi.unpack(arr.arr, num)) if num else 0.0
+        else:
+            if arr.arr != self.ptr_view_ or arr.max != self.view_.size:  # the array moved
+                self.ptr_view_ = arr.arr
+                self.view_ = np.frombuffer(ffi.buffer(arr.arr, 8 * arr.max), dtype=np.float64)
+            deepest = -float(self.view_[:num].min())
+        if deepest > self.max_overlap_m:
+            self.max_overlap_m = deepest

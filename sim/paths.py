@@ -1,0 +1,239 @@
+"""Path following for arrays of robots, and how close a robot may come to the obstacles.
+
+Each robot aims at the current waypoint of its planned path and switches to the next when it is
+within ``WAYPOINT_SWITCH_M`` of it or beyond the waypoint's normal line. A robot pushed off its
+path (by other robots, or going round them) may leave the planner's clearance: the straight line
+from where it is to the waypoint could then cut an obstacle corner. A robot at lateral offset c
+from the segment into waypoint T that heads straight for T stays within |c| of the segment, so it
+cannot touch an obstacle while |c| is below the segment's distance to the obstacles on that side
+less the robot radius. That *free width* is computed per segment and side when a path is set; a
+robot pushed out farther steers for the path ``LOOKAHEAD_M`` ahead instead, and the controller
+caps its speed toward the nearest obstacle (``to_obstacle``, ``DiffDriveController.wall_cap``) as
+toward a robot that stands still, until it is back within the free width.
+"""
+
+from __future__ import annotations
+
+from itertools import pairwise
+
+import numpy as np
+
+WAYPOINT_SWITCH_M = 0.2  # aim at the next waypoint once this close to the current one
+LOOKAHEAD_M = 1.5  # a robot pushed off its path steers for the path this far ahead
+SCALAR_FREE_MAX = 48  # free widths of fewer (segment, obstacle edge) pairs in plain Python
+
+
+class PathFollower:
+    """Waypoint lists of m robots in padded arrays, with the vectorised bookkeeping around them.
+
+    The segment each robot is on (its waypoint, the unit direction into it, the path length left
+    after it, the corner speed there and its free widths) is kept in (m,) arrays, refreshed only
+    when a robot passes a waypoint or gets a new path, so a control period reads no padded array.
+
+    Args:
+        m: number of robots.
+        v_max_mps: top speed, used for the corner speeds.
+        obstacles: convex polygons (V, 2) robots must not touch, arena walls included (a wall
+            may be given as a two-point polygon, a segment).
+        radius_m: robot radius.
+    """
+
+    def __init__(self, m: int, v_max_mps: float, obstacles=(), radius_m: float = 0.0) -> None:
+        self.v_max_mps = v_max_mps
+        self.radius_m = radius_m
+        polys = [np.asarray(p, dtype=float) @ np.array([1.0, 1j]) for p in obstacles]
+        polys = [p for p in polys if len(p)]
+        edges = [(p, np.roll(p, -1)) if len(p) > 2 else (p[:1], p[-1:]) for p in polys]
+        self.n_owner_ = len(polys)
+        self.verts_ = np.concatenate(polys) if polys else np.zeros(0, dtype=complex)
+        self.edge0_ = np.concatenate([e[0] for e in edges]) if polys else self.verts_
+        self.edge1_ = np.concatenate([e[1] for e in edges]) if polys else self.verts_
+        self.vert_start_ = np.cumsum([0] + [len(p) for p in polys])[:-1]
+        self.edge_start_ = np.cumsum([0] + [len(e[0]) for e in edges])[:-1]
+        self.owners_ = [  # the same, per obstacle, as Python lists: vertices and edges
+            (p.tolist(), list(zip(e0.tolist(), e1.tolist(), strict=True)))
+            for p, (e0, e1) in zip(polys, edges, strict=True)
+        ]
+        self.points = np.zeros((m, 2), dtype=complex)  # (m, P) waypoints, padded with the last
+        self.last = np.full(m, -1)  # index of the final waypoint (-1: no path)
+        self.index = np.zeros(m, dtype=int)  # waypoint currently aimed at
+        self.after_m = np.zeros((m, 2))  # path length left after each waypoint
+        self.corner2 = np.zeros((m, 2))  # squared speed allowed at each waypoint
+        self.free_m = np.zeros((m, 2, 2))  # free width left, right of the segment into each
+        self.tgt_ = np.zeros(m, dtype=complex)  # the current waypoint of each robot
+        self.unit_c_ = np.zeros(m, dtype=complex)  # conj. unit direction of the segment into it
+        self.seg_m_ = np.zeros(m)  # that segment's length
+        self.after_ = np.zeros(m)  # path length after the current waypoint
+        self.corner2_ = np.zeros(m)  # squared corner speed at the current waypoint
+        self.switch_ = np.full(m, -1.0)  # switch within this distance (-1: last waypoint)
+        self.beyond_ = np.full(m, -np.inf)  # ... or this far beyond the normal line (0 / -inf)
+        self.free_ = np.zeros((2, m))  # minus the free width left, the free width right
+        self.free_[0], self.free_[1] = -np.inf, np.inf  # no path: never off it
+
+    def set_path(self, j: int, path: np.ndarray) -> float:
+        """Give robot j a path (P, 2) whose first point is where it is now; its length (m)."""
+        n = len(path)
+        if n > self.points.shape[1]:
+            grow = ((0, 0), (0, n - self.points.shape[1]))
+            self.points = np.pad(self.points, grow, mode="edge")
+            self.after_m = np.pad(self.after_m, grow)
+            self.corner2 = np.pad(self.corner2, grow)
+            self.free_m = np.pad(self.free_m, (*grow, (0, 0)))
+        pts = (path[:, 0] + 1j * path[:, 1]).tolist()  # a few points: plain Python is quicker
+        seg = [b - a for a, b in pairwise(pts)]
+        length = [abs(s) for s in seg]
+        after = [0.0] * n
+        for k in range(n - 2, -1, -1):
+            after[k] = after[k + 1] + length[k]
+        corner2 = [0.0] * n
+        for k in range(1, n - 1):
+            turn = length[k - 1] * length[k]
+            cos = (seg[k] * seg[k - 1].conjugate()).real / turn if turn > 1e-12 else 0.0
+            cos = min(max(cos, 0.0), 1.0)
+            corner2[k] = (self.v_max_mps * cos * cos) ** 2
+        self.points[j, :n], self.points[j, n:] = pts, pts[-1]
+        self.after_m[j, :n], self.after_m[j, n:] = after, 0.0
+        self.corner2[j, :n], self.corner2[j, n:] = corner2, 0.0
+        self.free_m[j] = np.inf
+        if n > 1:
+            self.free_m[j, 1:n] = self._free(np.array(pts[:-1]), np.array(pts[1:]))
+        self.last[j] = n - 1
+        self.index[j] = min(1, n - 1)
+        self.load_one(j)
+        return after[0]
+
+    def load_one(self, j: int) -> None:
+        """Refresh robot j's current-segment entries from its waypoint index."""
+        idx = int(self.index[j])
+        tgt = complex(self.points[j, idx])
+        seg = tgt - complex(self.points[j, max(idx - 1, 0)])
+        length = abs(seg)
+        self.tgt_[j], self.seg_m_[j] = tgt, length
+        self.unit_c_[j] = seg.conjugate() / length if length > 0.0 else 0.0
+        self.after_[j], self.corner2_[j] = self.after_m[j, idx], self.corner2[j, idx]
+        more = idx < self.last[j]
+        self.switch_[j] = WAYPOINT_SWITCH_M if more else -1.0
+        self.beyond_[j] = 0.0 if more else -np.inf
+        self.free_[0, j], self.free_[1, j] = -self.free_m[j, idx, 0], self.free_m[j, idx, 1]
+
+    def clear(self, j: int) -> None:
+        self.last[j] = -1
+        self.index[j] = 0
+        self.switch_[j], self.beyond_[j] = -1.0, -np.inf
+        self.free_[0, j], self.free_[1, j] = -np.inf, np.inf
+
+    def _load(self, rows: np.ndarray) -> None:
+        """Refresh the current-segment arrays of ``rows`` from their waypoint index."""
+        idx = self.index[rows]
+        tgt = self.points[rows, idx]
+        seg = tgt - self.points[rows, np.maximum(idx - 1, 0)]
+        length = np.abs(seg)
+        self.tgt_[rows], self.seg_m_[rows] = tgt, length
+        self.unit_c_[rows] = np.where(length > 0.0, seg.conj() / np.maximum(length, 1e-12), 0.0)
+        self.after_[rows], self.corner2_[rows] = self.after_m[rows, idx], self.corner2[rows, idx]
+        more = idx < self.last[rows]
+        self.switch_[rows] = np.where(more, WAYPOINT_SWITCH_M, -1.0)
+        self.beyond_[rows] = np.where(more, 0.0, -np.inf)
+        left, right = self.free_m[rows, idx, 0], self.free_m[rows, idx, 1]
+        self.free_[0, rows], self.free_[1, rows] = -left, right
+
+    def targets(self, z: np.ndarray):
+        """Advance past reached waypoints and pick where each robot steers.
+
+        Args:
+            z: (m,) positions x + iy (rows of robots without a path hold stale values).
+
+        Returns:
+            (m,) aim point minus position, (m,) distance to the waypoint, (m,) path length
+            left, (m,) squared corner speed at the waypoint and the robots (indices) beyond the
+            free width of their segment, or None.
+        """
+        delta = self.tgt_ - z
+        gap = np.abs(delta)
+        proj = delta * self.unit_c_  # real: ahead of the waypoint's normal line; imag: off path
+        close = gap < self.switch_
+        close |= proj.real < self.beyond_  # near the waypoint or beyond its normal line
+        if np.count_nonzero(close):
+            rows = close.nonzero()[0]
+            self.index[rows] += 1
+            self._load(rows)
+            delta = self.tgt_ - z
+            gap = np.abs(delta)
+            proj = delta * self.unit_c_
+        side = proj.imag  # minus the robot's offset to the left of the segment
+        off = side < self.free_[0]
+        off |= side > self.free_[1]
+        aim, rows = delta, None
+        if np.count_nonzero(off):  # straight for the waypoint could touch an obstacle
+            rows = off.nonzero()[0]
+            back = np.minimum(np.maximum(proj.real[rows] - LOOKAHEAD_M, 0.0), self.seg_m_[rows])
+            aim = delta.copy()
+            aim[rows] -= back * self.unit_c_[rows].conj()
+        return aim, gap, gap + self.after_, self.corner2_, rows
+
+    def to_obstacle(self, z: np.ndarray) -> np.ndarray:
+        """From each point z (k,) to the nearest point of any obstacle or wall (x + iy)."""
+        if not self.n_owner_ or not len(z):
+            return np.full(len(z), np.inf + 0j)
+        e0, d = self.edge0_, self.edge1_ - self.edge0_
+        t = ((z[:, None] - e0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
+        near = e0 + np.minimum(np.maximum(t, 0.0), 1.0) * d - z[:, None]
+        return near[np.arange(len(z)), np.abs(near).argmin(axis=1)]
+
+    def _free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(S, 2) free width left and right of segments a -> b: distance to the nearest
+        obstacle on that side (one that straddles the segment's line counts on both) less the
+        robot radius, at least 0."""
+        out = np.full((len(a), 2), np.inf)
+        if not self.n_owner_:
+            return out
+        if len(a) * len(self.edge0_) <= SCALAR_FREE_MAX:  # few: plain Python is quicker
+            for k, (p, q) in enumerate(zip(a.tolist(), b.tolist(), strict=True)):
+                out[k] = self._free_one(p, q)
+            return out
+        e0, e1, v = self.edge0_, self.edge1_, self.verts_
+        ends = np.minimum(_to_segments(a[:, None], e0, e1), _to_segments(b[:, None], e0, e1))
+        dist = np.minimum(
+            np.minimum.reduceat(ends, self.edge_start_, axis=1),
+            np.minimum.reduceat(_to_segments(v, a[:, None], b[:, None]), self.vert_start_, axis=1),
+        )
+        dist -= self.radius_m
+        unit = (b - a) / np.maximum(np.abs(b - a), 1e-12)
+        side = ((v - a[:, None]) * unit.conj()[:, None]).imag  # > 0: left of the segment
+        left = np.maximum.reduceat(side > -1e-9, self.vert_start_, axis=1)
+        right = np.maximum.reduceat(side < 1e-9, self.vert_start_, axis=1)
+        out[:, 0] = np.where(left, dist, np.inf).min(axis=1)
+        out[:, 1] = np.where(right, dist, np.inf).min(axis=1)
+        return np.maximum(out, 0.0)
+
+    def _free_one(self, a: complex, b: complex) -> tuple[float, float]:
+        """:meth:`_free` of one segment, in plain Python."""
+        length = abs(b - a)
+        unit_c = (b - a).conjugate() / length if length > 1e-12 else 1.0
+        left = right = np.inf
+        for verts, edges in self.owners_:
+            dist = min(_to_segment(p, a, b) for p in verts)
+            for e0, e1 in edges:
+                dist = min(dist, _to_segment(a, e0, e1), _to_segment(b, e0, e1))
+            side = [((p - a) * unit_c).imag for p in verts]  # > 0: left of the segment
+            if max(side) > -1e-9:
+                left = min(left, dist)
+            if min(side) < 1e-9:
+                right = min(right, dist)
+        return max(left - self.radius_m, 0.0), max(right - self.radius_m, 0.0)
+
+
+def _to_segment(p: complex, s0: complex, s1: complex) -> float:
+    """Distance from point p to segment s0 -> s1 (complex numbers)."""
+    d = s1 - s0
+    dd = (d * d.conjugate()).real
+    t = ((p - s0) * d.conjugate()).real / dd if dd > 1e-24 else 0.0
+    t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+    return abs(p - s0 - t * d)
+
+
+def _to_segments(p: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
+    """Distance from points p to segments s0 -> s1 (complex, broadcast together)."""
+    d = s1 - s0
+    t = ((p - s0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
+    return np.abs(p - s0 - np.minimum(np.maximum(t, 0.0), 1.0) * d)

@@ -1,0 +1,261 @@
+"""The control period of a small team, robot by robot in plain Python.
+
+For a handful of robots the cost of a numpy control period is the per-call overhead of about a
+hundred small array operations, not the arithmetic: the same law written per robot with Python
+floats and complex numbers is several times faster, and it skips what a robot does not need
+(one standing still costs a comparison). :class:`SmallTeamMixin` is that scalar twin of
+``PymunkWorld._control`` (``sim.physics``) and of the array parts of ``sim.jobs``: the same
+formulas (``sim.drive.DiffDriveController``, ``sim.paths.PathFollower``), the same order, the
+same event handlers; only the proximity search keeps one numpy distance matrix, and rare work
+(waypoint switches, arrivals, stuck checks, make-way, obstacle caps) calls the array code.
+``PymunkWorld`` uses it up to ``SMALL_TEAM`` robots; ``tests/sim/test_physics.py`` runs the
+behaviour tests through both.
+"""
+
+from __future__ import annotations
+
+from math import atan2, cos, sqrt
+
+import numpy as np
+
+from sim.drive import AHEAD_DEG, ARC_MAX_RADIUS_M, CREEP_MPS, HEADING_GAIN, KEEP_RIGHT_GAIN
+from sim.jobs import PROGRESS_M, SPEED_BOUND, YIELD_TRIGGER_M
+from sim.paths import LOOKAHEAD_M
+from sim.recording import DRIVING, IDLE
+
+SMALL_TEAM = 24  # up to this many robots a control period runs per robot in Python
+_COS_AHEAD = float(np.cos(np.radians(AHEAD_DEG)))
+
+
+class SmallTeamMixin:
+    """Scalar control period (see the module docstring); arrays from ``PymunkWorld.reset``."""
+
+    def _control_small(self, t: float) -> None:
+        motors, c, f = self.motors, self.controller, self.follower
+        rob = motors.read()
+        zn, thn = rob["z"], rob["th"]
+        hn = np.exp(1j * thn)
+        zs, ths, hs = zn.tolist(), thn.tolist(), hn.tolist()
+        m = len(zs)
+        self.moved_m_ += np.abs(zn - self.last_z_)
+        self.last_z_[:] = zn
+        self.last_th_[:] = thn
+        # ---- tasks: steering targets, progress, yield, arrival (sim.jobs._jobs) ----
+        state = self.state_.tolist()
+        backing = []
+        if self.n_backoff_:
+            until, replan = self.backoff_until_s_.tolist(), self.replan_.tolist()
+            backing = [j for j in range(m) if state[j] == DRIVING and until[j] > t]
+            for j in range(m):
+                if replan[j] and state[j] == DRIVING and until[j] <= t:
+                    self._replan(j, (zs[j].real, zs[j].imag), t)
+            state = self.state_.tolist()
+        yielding = self.yielding_.tolist() if self.n_yield_ else None
+        go = [s == DRIVING for s in state]
+        for j in backing:
+            go[j] = False
+        steered = [j for j in range(m) if go[j] or (yielding is not None and yielding[j])]
+        v, w = [0.0] * m, [0.0] * m
+        off = []  # robots beyond the free width of their path
+        if steered:
+            tgt, unit_c, switch = f.tgt_.tolist(), f.unit_c_.tolist(), f.switch_.tolist()
+            beyond, free, after = f.beyond_.tolist(), f.free_.tolist(), f.after_.tolist()
+            corner2, seg_m = f.corner2_.tolist(), f.seg_m_.tolist()
+            free0, free1 = free
+            gain, bias = c.align_gain_, c.align_bias_
+            brake2 = 2.0 * c.brake_mps2
+            left_m, progress = self.left_m_, self.progress_m_.tolist()
+            until = self.yield_until_s_.tolist() if yielding is not None else None
+            stops = []
+            for j in steered:
+                z = zs[j]
+                d = tgt[j] - z
+                gap = abs(d)
+                p = d * unit_c[j]
+                if gap < switch[j] or p.real < beyond[j]:  # next waypoint
+                    f.index[j] += 1
+                    f.load_one(j)
+                    tgt[j], unit_c[j] = complex(f.tgt_[j]), complex(f.unit_c_[j])
+                    after[j], corner2[j], seg_m[j] = f.after_[j], f.corner2_[j], f.seg_m_[j]
+                    free0[j], free1[j] = f.free_[:, j].tolist()
+                    d = tgt[j] - z
+                    gap = abs(d)
+                    p = d * unit_c[j]
+                side, aim = p.imag, d
+                if side < free0[j] or side > free1[j]:  # straight could touch an obstacle
+                    back = min(max(p.real - LOOKAHEAD_M, 0.0), seg_m[j])
+                    aim = d - back * unit_c[j].conjugate()
+                    off.append(j)
+                local = aim * hs[j].conjugate()
+                err = atan2(local.imag, local.real)
+                vj = cos(err) * gain + bias
+                stop = sqrt(gap * brake2 + corner2[j])
+                vj = 0.0 if vj < 0.0 else (stop if stop < vj else vj)
+                wj = err * HEADING_GAIN
+                left = gap + after[j]
+                left_m[j] = left
+                if yielding is not None and yielding[j] and (left < 0.15 or until[j] < t):
+                    stops.append(j)
+                    vj = wj = 0.0
+                elif go[j] and left < progress[j]:
+                    self.progress_m_[j] = left - PROGRESS_M
+                    self.t_progress_s_[j] = t
+                v[j], w[j] = vj, wj
+            for j in stops:
+                self._stop_yield(j)
+            if t > self.stuck_check_s_:
+                self._stuck(np.array(go), t)
+            if t >= self.site_check_s_:
+                self._arrive_small(zs, go, v, w, t)
+        for j in backing:
+            v[j], w[j] = self.backoff_cmd_[j].tolist()
+        self._clock(t)
+        # ---- other robots (sim.drive.DiffDriveController.proximity), obstacles ----
+        state = self.state_.tolist()  # arrivals and ends of work may have changed it
+        if t >= self.prox_check_s_:
+            self._near_small(zn, zs, ths, hs, hn, state, v, w, t)
+        else:
+            self.blocker_, self.near_ = self.nobody_
+        if off or backing:  # beyond the free width, or backing off blind: mind the obstacles
+            self._obstacle_caps(zn, hn.conj(), v, sorted(off + backing))
+        # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----
+        s, hb, top = c.rim_step_mps, c.half_base_m, c.rim_max_mps
+        v0s, q0s = self.v_cmd_.tolist(), self.q_cmd_.tolist()
+        rows, radii = [], []
+        moving = False
+        for j in range(m):
+            vj, q1, v0, q0 = v[j], w[j] * hb, v0s[j], q0s[j]
+            if vj == 0.0 and q1 == 0.0 and v0 == 0.0 and q0 == 0.0:
+                rows += (zs[j].real, zs[j].imag, ths[j], 0.0, 0.0, 0.0)
+                radii.append(0.0)
+                continue
+            over = (abs(vj) + abs(q1)) / top
+            if over > 1.0:
+                vj, q1 = vj / over, q1 / over
+            dv, dq = vj - v0, q1 - q0
+            if abs(vj) < abs(v0):  # slowing down comes first: the turn gets what is left
+                dv = s if dv > s else (-s if dv < -s else dv)
+                room = s - abs(dv)
+                dq = room if dq > room else (-room if dq < -room else dq)
+                right, left = dv + dq, dv - dq
+            else:
+                right, left = dv + dq, dv - dq
+                right = s if right > s else (-s if right < -s else right)
+                left = s if left > s else (-s if left < -s else left)
+            vj = (right + left) * 0.5 + v0
+            qj = (right - left) * 0.5 + q0
+            wj = qj * (1.0 / hb)
+            v[j], w[j], q0s[j] = vj, wj, qj
+            moving = moving or vj != 0.0 or wj != 0.0
+            z, h = zs[j], hs[j]
+            if abs(vj) < abs(wj) * ARC_MAX_RADIUS_M:
+                r = vj / wj
+                centre = r * (1j * h) + z
+                vel = (vj - wj * r) * h
+            else:
+                r, centre, vel = 0.0, z, vj * h
+            rows += (centre.real, centre.imag, ths[j], vel.real, vel.imag, wj)
+            radii.append(r)
+        self.v_cmd_, self.q_cmd_ = np.array(v), np.array(q0s)
+        motors.write_rows(rows, radii)
+        calm = not (self.n_steer_ or self.n_backoff_ or moving)
+        self.resting_, self.calm_ = calm and self.calm_, calm
+        if self.recorder is not None:
+            self.recorder.poses(t, motors.flat[:, :2], thn, self.state_)
+
+    def _arrive_small(self, zs, go, v, w, t: float) -> None:
+        """``sim.jobs._arrive``, robot by robot."""
+        tol, reach = self.spatial.arrive_tol_m, self.reach_m_
+        zone = tol + 2 * reach
+        site = self.site_.tolist()
+        nearest, arrived, queue = np.inf, [], []
+        for j in range(len(zs)):
+            if go[j]:
+                gap = abs(site[j] - zs[j])
+                nearest = gap if gap < nearest else nearest
+                if gap <= tol:
+                    arrived.append(j)
+                elif gap <= zone:
+                    queue.append((j, gap))
+        if queue:  # touching a robot that stands nearer the site: the site is taken,
+            # and working beside the robots already there counts as arrived
+            near, state, yielding = (
+                self.near_.tolist(),
+                self.state_.tolist(),
+                self.yielding_.tolist(),
+            )
+            still = [k for k in range(len(zs)) if state[k] != DRIVING and not yielding[k]]
+            for j, gap in queue:
+                if near[j] <= reach and any(
+                    abs(zs[k] - site[j]) < gap and abs(zs[k] - zs[j]) <= reach for k in still
+                ):
+                    arrived.append(j)
+            arrived.sort()
+        self._start_work(arrived, v, w, t)
+        speed = SPEED_BOUND * self.controller.v_max_mps
+        self.site_check_s_ = t + max(nearest - zone, 0.0) / speed
+
+    def _near_small(self, zn, zs, ths, hs, hn, state, v, w, t: float) -> None:
+        """Proximity caps over the pairs closer than ``look_m``; keep-right; make-way."""
+        c = self.controller
+        m = len(zs)
+        rel = zn - zn[:, None]
+        dist = np.abs(rel)
+        dist += c.diag_inf(m)
+        apart = float(dist.min())
+        if apart > c.look_m:  # no cap binds before two robots could be look_m apart
+            self.prox_check_s_ = t + (apart - c.look_m) / (2.0 * SPEED_BOUND * c.v_max_mps)
+            self.blocker_, self.near_ = self.nobody_
+            return
+        ii, kk = (dist < c.look_m).nonzero()
+        pairs = zip(
+            ii.tolist(), kk.tolist(), dist[ii, kk].tolist(), rel[ii, kk].tolist(), strict=True
+        )
+        contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
+        two_a, credit = 1.0 / inv2a, 0.5 / c.wheel_decel_
+        sign = [(vj > 0.0) - (vj < 0.0) for vj in v]
+        vprev = self.v_cmd_.tolist()
+        hc = [h.conjugate() for h in hs]
+        limit, near, blocker = [np.inf] * m, [np.inf] * m, [-1] * m
+        for i, k, d, r in pairs:
+            d = d if d > 1e-9 else 1e-9
+            toward = (r * hc[i]).real / d * sign[i]
+            if toward <= 0.0:
+                continue
+            back = -(r * hc[k]).real / d * vprev[k]  # how fast k comes closer to i
+            gap = d - contact if d > contact else 0.0
+            their = back * (react + back * inv2a) if back > 0.0 else -back * back * credit
+            if their > 0.5 * gap:
+                their = 0.5 * gap
+            cap = sqrt((gap - their) / toward * two_a + at2) - at
+            floor = CREEP_MPS / toward
+            cap = floor if cap < floor else cap
+            if cap < limit[i]:
+                limit[i] = cap
+            if toward > _COS_AHEAD and d < near[i]:
+                near[i], blocker[i] = d, k
+        for j in range(m):
+            if limit[j] < abs(v[j]):
+                v[j] = limit[j] if v[j] > 0.0 else -limit[j]
+        self.blocker_, self.near_ = np.array(blocker), np.array(near)
+        closest = min(near)
+        if closest < c.keep_right_m:
+            turn = KEEP_RIGHT_GAIN * c.omega_max_radps
+            for j in range(m):
+                o = blocker[j]
+                if near[j] < c.keep_right_m:
+                    if not (state[o] == DRIVING and cos(ths[j] - ths[o]) > 0.5):
+                        w[j] -= turn
+        reach = self.reach_m_ + YIELD_TRIGGER_M
+        if closest < reach:
+            yielding = self.yielding_.tolist()
+            pushers = [
+                j
+                for j in range(m)
+                if state[j] == DRIVING
+                and near[j] < reach
+                and state[blocker[j]] == IDLE
+                and not yielding[blocker[j]]
+            ]
+            if pushers:
+                self._make_way(np.array(pushers), self.blocker_, zn, hn, np.array(v), t)

@@ -115,9 +115,12 @@ def cmd_run(args) -> int:
     if args.resume and not checkpoint.is_file():
         raise UserError(f"{checkpoint}: no checkpoint to resume from (run with --checkpoint first)")
     scenario = _load(spec.scenario)
+    if checkpoint is not None and scenario.spatial is not None:
+        raise UserError("checkpoints and --resume are supported in the abstract world only")
+    manifest = build_manifest(scenario, [spec])
     out.mkdir(parents=True, exist_ok=True)
-    write_manifest(out, build_manifest(scenario, [spec]))
     summary = execute(spec, checkpoint=checkpoint, resume=args.resume, task_table=True)
+    write_manifest(out, manifest)  # only once the run succeeded: a failed run leaves OUT as it was
     table = summary.pop("task_table")
     if scenario.spatial is not None:
         from scenarios.figures import fig_run_spatial
@@ -170,6 +173,8 @@ def cmd_render(args) -> int:
         raise UserError(
             f"{args.scenario}: render needs a spatial scenario (one with a [spatial] table)"
         )
+    if args.fps > 50:
+        raise UserError(f"--fps {args.fps}: a GIF plays at most 50 frames per second")
     sets = min(args.sets, sc.stream.n_sets)
     overrides = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
     for path in (args.gif, args.mp4, args.trajectory):

@@ -105,8 +105,12 @@ class Motors:
             raise RuntimeError("robots and control bodies must be runs of batch buffer rows")
         self.anchor_ = np.zeros(len(self.bodies))
         self.radius_ = np.zeros(len(self.bodies))
-        self.anchor_list_ = [0.0] * len(self.bodies)
+        self.anchor_list_ = [0.0] * len(self.bodies)  # arc radii of the pivots (write_one)
         self.cp_pivots_ = [p._constraint for p in self.pivots]
+        self.cp_ctl_ = [c._body for c in controls]
+        self.set_pos_, self.set_angle_ = lib.cpBodySetPosition, lib.cpBodySetAngle
+        self.set_vel_, self.set_w_ = lib.cpBodySetVelocity, lib.cpBodySetAngularVelocity
+        self.set_anchor_ = lib.cpPivotJointSetAnchorA
         self.get_, self.set_ = ffi.new("pmBatchedData *"), ffi.new("pmBatchedData *")
         for d in (self.get_, self.set_):
             d.fields = _IO.value
@@ -158,20 +162,20 @@ class Motors:
         lib.cpSpaceEachBody(self.space._space, self.set_fn_, self.set_)
         arr.num = num
 
-    def write_rows(self, rows: list, radii: list) -> None:
-        """:meth:`write` with the control bodies' states already computed: x, y, angle, vx, vy,
-        omega of each robot in turn (one flat list) and one arc radius per robot (the scalar
-        path of a small team)."""
-        self.ctl_flat[:] = rows
-        pivots, set_anchor, old = self.cp_pivots_, lib.cpPivotJointSetAnchorA, self.anchor_list_
-        for j, r in enumerate(radii):
-            if r != old[j]:
-                set_anchor(pivots[j], (0.0, -r))
-        self.anchor_list_ = radii
-        arr = self.buf_._float_arr
-        num, arr.num = arr.num, 0  # the setter walks the buffer from its start
-        lib.cpSpaceEachBody(self.space._space, self.set_fn_, self.set_)
-        arr.num = num
+    def write_one(
+        self, j: int, x: float, y: float, th: float, vx: float, vy: float, w: float, radius: float
+    ) -> None:
+        """:meth:`write` for robot j alone, its control body's state already computed (the
+        scalar path of a small team): position, angle, velocity, turn rate and arc radius.
+        A few cffi calls, no buffer: a robot whose command has not changed is not written."""
+        body = self.cp_ctl_[j]
+        self.set_pos_(body, (x, y))
+        self.set_angle_(body, th)
+        self.set_vel_(body, (vx, vy))
+        self.set_w_(body, w)
+        if radius != self.anchor_list_[j]:
+            self.set_anchor_(self.cp_pivots_[j], (0.0, -radius))
+            self.anchor_list_[j] = radius
 
 
 def _rows(rows: list[int]) -> slice | np.ndarray:

@@ -54,6 +54,10 @@ class PathFollower:
             (p.tolist(), list(zip(e0.tolist(), e1.tolist(), strict=True)))
             for p, (e0, e1) in zip(polys, edges, strict=True)
         ]
+        self.boxes_ = [  # bounding box of each obstacle: lower-left, upper-right (x + iy)
+            (complex(p.real.min(), p.imag.min()), complex(p.real.max(), p.imag.max()))
+            for p in polys
+        ]
         self.points = np.zeros((m, 2), dtype=complex)  # (m, P) waypoints, padded with the last
         self.last = np.full(m, -1)  # index of the final waypoint (-1: no path)
         self.index = np.zeros(m, dtype=int)  # waypoint currently aimed at
@@ -69,6 +73,8 @@ class PathFollower:
         self.beyond_ = np.full(m, -np.inf)  # ... or this far beyond the normal line (0 / -inf)
         self.free_ = np.zeros((2, m))  # minus the free width left, the free width right
         self.free_[0], self.free_[1] = -np.inf, np.inf  # no path: never off it
+        self.version_ = 0  # counts changes of the current-segment arrays (caches compare it)
+        self.lists_version_, self.lists_ = -1, []
 
     def set_path(self, j: int, path: np.ndarray) -> float:
         """Give robot j a path (P, 2) whose first point is where it is now; its length (m)."""
@@ -104,6 +110,7 @@ class PathFollower:
 
     def load_one(self, j: int) -> None:
         """Refresh robot j's current-segment entries from its waypoint index."""
+        self.version_ += 1
         idx = int(self.index[j])
         tgt = complex(self.points[j, idx])
         seg = tgt - complex(self.points[j, max(idx - 1, 0)])
@@ -116,7 +123,49 @@ class PathFollower:
         self.beyond_[j] = 0.0 if more else -np.inf
         self.free_[0, j], self.free_[1, j] = -self.free_m[j, idx, 0], self.free_m[j, idx, 1]
 
+    def segment_lists(self) -> list[list]:
+        """The current-segment arrays as Python lists (the scalar control period of a small
+        team): waypoint, conj. unit direction, switch distance, beyond offset, minus the free
+        width left, free width right, path length after, squared corner speed, segment length.
+        Cached until the arrays change (``version_``); an entry the caller refreshes itself
+        after :meth:`load_one` may be kept with :meth:`keep_lists`."""
+        if self.lists_version_ != self.version_:
+            self.lists_ = [
+                self.tgt_.tolist(),
+                self.unit_c_.tolist(),
+                self.switch_.tolist(),
+                self.beyond_.tolist(),
+                *self.free_.tolist(),
+                self.after_.tolist(),
+                self.corner2_.tolist(),
+                self.seg_m_.tolist(),
+            ]
+            self.lists_version_ = self.version_
+        return self.lists_
+
+    def refresh_list_entry(self, j: int) -> None:
+        """After :meth:`load_one` of robot j: copy its entries into the cached lists."""
+        lists = self.lists_
+        for k, arr in enumerate(
+            (
+                self.tgt_,
+                self.unit_c_,
+                self.switch_,
+                self.beyond_,
+                self.free_[0],
+                self.free_[1],
+                self.after_,
+                self.corner2_,
+                self.seg_m_,
+            )
+        ):
+            lists[k][j] = arr[j].item()
+        if self.lists_version_ == self.version_ - 1:  # nothing else changed meanwhile
+            self.lists_version_ = self.version_
+
     def clear(self, j: int) -> None:
+        """Robot j has no path (it stands)."""
+        self.version_ += 1
         self.last[j] = -1
         self.index[j] = 0
         self.switch_[j], self.beyond_[j] = -1.0, -np.inf
@@ -124,6 +173,7 @@ class PathFollower:
 
     def _load(self, rows: np.ndarray) -> None:
         """Refresh the current-segment arrays of ``rows`` from their waypoint index."""
+        self.version_ += 1
         idx = self.index[rows]
         tgt = self.points[rows, idx]
         seg = tgt - self.points[rows, np.maximum(idx - 1, 0)]
@@ -179,6 +229,28 @@ class PathFollower:
         t = ((z[:, None] - e0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
         near = e0 + np.minimum(np.maximum(t, 0.0), 1.0) * d - z[:, None]
         return near[np.arange(len(z)), np.abs(near).argmin(axis=1)]
+
+    def to_obstacle_one(self, z: complex) -> complex:
+        """:meth:`to_obstacle` of one point, in plain Python: obstacles whose bounding box is
+        no nearer than the best point so far are skipped."""
+        best, best_m = complex(np.inf, 0.0), np.inf
+        x, y = z.real, z.imag
+        for (lo, hi), (_, edges) in zip(self.boxes_, self.owners_, strict=True):
+            dx = max(lo.real - x, x - hi.real, 0.0)
+            dy = max(lo.imag - y, y - hi.imag, 0.0)
+            if dx * dx + dy * dy >= best_m * best_m:
+                continue
+            for e0, e1 in edges:
+                d = e1 - e0
+                dc = d.conjugate()
+                dd = (d * dc).real
+                t = ((z - e0) * dc).real / (dd if dd > 1e-24 else 1e-24)
+                t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+                near = e0 + t * d - z
+                gap = abs(near)
+                if gap < best_m:
+                    best, best_m = near, gap
+        return best
 
     def _free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """(S, 2) free width left and right of segments a -> b: distance to the nearest

@@ -120,6 +120,7 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
         self.stuck_check_s_ = self.site_check_s_ = self.prox_check_s_ = -np.inf
         self.n_backoff_ = self.n_yield_ = self.n_steer_ = 0
         self.resting_ = self.calm_ = True  # nothing steered and every wheel stopped (twice)
+        self.state_list_, self.steer_list_ = self.state_.tolist(), []  # kept by _events
         self.recoveries_ = np.zeros(m, dtype=int)
         self.backoff_until_s_ = np.full(m, -np.inf)
         self.backoff_cmd_ = np.zeros((m, 2))

@@ -41,7 +41,7 @@ class SmallTeamMixin:
         self.last_z_[:] = zn
         self.last_th_[:] = thn
         # ---- tasks: steering targets, progress, yield, arrival (sim.jobs._jobs) ----
-        state = self.state_.tolist()
+        state = self.state_list_  # state_ and the steered robots as lists, kept by _events
         backing = []
         if self.n_backoff_:
             until, replan = self.backoff_until_s_.tolist(), self.replan_.tolist()
@@ -49,19 +49,18 @@ class SmallTeamMixin:
             for j in range(m):
                 if replan[j] and state[j] == DRIVING and until[j] <= t:
                     self._replan(j, (zs[j].real, zs[j].imag), t)
-            state = self.state_.tolist()
+            state = self.state_list_
         yielding = self.yielding_.tolist() if self.n_yield_ else None
         go = [s == DRIVING for s in state]
-        for j in backing:
-            go[j] = False
-        steered = [j for j in range(m) if go[j] or (yielding is not None and yielding[j])]
+        steered = self.steer_list_
+        if backing:
+            for j in backing:
+                go[j] = False
+            steered = [j for j in steered if j not in backing]
         v, w = [0.0] * m, [0.0] * m
         off = []  # robots beyond the free width of their path
         if steered:
-            tgt, unit_c, switch = f.tgt_.tolist(), f.unit_c_.tolist(), f.switch_.tolist()
-            beyond, free, after = f.beyond_.tolist(), f.free_.tolist(), f.after_.tolist()
-            corner2, seg_m = f.corner2_.tolist(), f.seg_m_.tolist()
-            free0, free1 = free
+            tgt, unit_c, switch, beyond, free0, free1, after, corner2, seg_m = f.segment_lists()
             gain, bias = c.align_gain_, c.align_bias_
             brake2 = 2.0 * c.brake_mps2
             left_m, progress = self.left_m_, self.progress_m_.tolist()
@@ -75,9 +74,7 @@ class SmallTeamMixin:
                 if gap < switch[j] or p.real < beyond[j]:  # next waypoint
                     f.index[j] += 1
                     f.load_one(j)
-                    tgt[j], unit_c[j] = complex(f.tgt_[j]), complex(f.unit_c_[j])
-                    after[j], corner2[j], seg_m[j] = f.after_[j], f.corner2_[j], f.seg_m_[j]
-                    free0[j], free1[j] = f.free_[:, j].tolist()
+                    f.refresh_list_entry(j)
                     d = tgt[j] - z
                     gap = abs(d)
                     p = d * unit_c[j]
@@ -111,24 +108,23 @@ class SmallTeamMixin:
             v[j], w[j] = self.backoff_cmd_[j].tolist()
         self._clock(t)
         # ---- other robots (sim.drive.DiffDriveController.proximity), obstacles ----
-        state = self.state_.tolist()  # arrivals and ends of work may have changed it
+        state = self.state_list_  # arrivals and ends of work may have changed it
         if t >= self.prox_check_s_:
             self._near_small(zn, zs, ths, hs, hn, state, v, w, t)
         else:
             self.blocker_, self.near_ = self.nobody_
         if off or backing:  # beyond the free width, or backing off blind: mind the obstacles
-            self._obstacle_caps(zn, hn.conj(), v, sorted(off + backing))
+            self._obstacle_caps_small(zs, hs, v, off + backing)
         # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----
         s, hb, top = c.rim_step_mps, c.half_base_m, c.rim_max_mps
         v0s, q0s = self.v_cmd_.tolist(), self.q_cmd_.tolist()
-        rows, radii = [], []
-        moving = False
+        write = motors.write_one
+        moving = changed = False
         for j in range(m):
             vj, q1, v0, q0 = v[j], w[j] * hb, v0s[j], q0s[j]
             if vj == 0.0 and q1 == 0.0 and v0 == 0.0 and q0 == 0.0:
-                rows += (zs[j].real, zs[j].imag, ths[j], 0.0, 0.0, 0.0)
-                radii.append(0.0)
-                continue
+                continue  # stopped and staying so: its control body stands, anywhere will do
+            changed = True
             over = (abs(vj) + abs(q1)) / top
             if over > 1.0:
                 vj, q1 = vj / over, q1 / over
@@ -154,10 +150,9 @@ class SmallTeamMixin:
                 vel = (vj - wj * r) * h
             else:
                 r, centre, vel = 0.0, z, vj * h
-            rows += (centre.real, centre.imag, ths[j], vel.real, vel.imag, wj)
-            radii.append(r)
-        self.v_cmd_, self.q_cmd_ = np.array(v), np.array(q0s)
-        motors.write_rows(rows, radii)
+            write(j, centre.real, centre.imag, ths[j], vel.real, vel.imag, wj, r)
+        if changed:
+            self.v_cmd_, self.q_cmd_ = np.array(v), np.array(q0s)
         calm = not (self.n_steer_ or self.n_backoff_ or moving)
         self.resting_, self.calm_ = calm and self.calm_, calm
         if self.recorder is not None:
@@ -195,34 +190,68 @@ class SmallTeamMixin:
         speed = SPEED_BOUND * self.controller.v_max_mps
         self.site_check_s_ = t + max(nearest - zone, 0.0) / speed
 
+    def _obstacle_caps_small(self, zs, hs, v, rows) -> None:
+        """``PymunkWorld._obstacle_caps`` (``DiffDriveController.wall_cap``), robot by robot."""
+        c, to_obstacle = self.controller, self.follower.to_obstacle_one
+        two_a, at, at2 = 1.0 / c.inv2a_, c.at_, c.at2_
+        for j in rows:
+            vj = v[j]
+            if vj == 0.0:  # nothing to cap
+                continue
+            near = to_obstacle(zs[j])
+            dist = abs(near)
+            tau = (near * hs[j].conjugate()).real / (dist if dist > 1e-12 else 1e-12)
+            tau = -tau if vj < 0.0 else tau
+            tau = tau if tau > 1e-9 else 1e-9
+            share = dist - c.radius_m if dist > c.radius_m else 0.0
+            cap = sqrt(share / tau * two_a + at2) - at
+            floor = CREEP_MPS / tau
+            cap = floor if cap < floor else cap
+            if cap < abs(vj):
+                v[j] = cap if vj > 0.0 else -cap
+
     def _near_small(self, zn, zs, ths, hs, hn, state, v, w, t: float) -> None:
-        """Proximity caps over the pairs closer than ``look_m``; keep-right; make-way."""
+        """Proximity caps, keep-right and make-way, over the pairs (i, k) with i steering.
+
+        Only a robot that steers (drives, yields or backs off) can be capped, turn right or ask
+        another to make way: a standing robot has no speed to cap, so its pairs are not looked
+        at (the result is the same as over all pairs). When every steering robot is farther
+        than ``look_m`` from every other robot the check sleeps until one could be that close;
+        a robot that starts to steer is an event (``_events``), which wakes it.
+        """
         c = self.controller
         m = len(zs)
-        rel = zn - zn[:, None]
-        dist = np.abs(rel)
-        dist += c.diag_inf(m)
-        apart = float(dist.min())
-        if apart > c.look_m:  # no cap binds before two robots could be look_m apart
-            self.prox_check_s_ = t + (apart - c.look_m) / (2.0 * SPEED_BOUND * c.v_max_mps)
+        look = c.look_m
+        movers = self.steer_list_  # driving (backing off too) or yielding
+        pairs, apart, inf = [], np.inf, np.inf
+        for i in movers:
+            zi = zs[i]
+            dist = [abs(z - zi) for z in zs]
+            dist[i] = inf
+            if min(dist) < look:
+                pairs += [(i, k, d, zs[k] - zi) for k, d in enumerate(dist) if d < look]
+            else:
+                apart = min(apart, min(dist))
+        if not pairs:  # no cap binds before a steering robot could be look_m from another
+            self.prox_check_s_ = t + (apart - look) / (2.0 * SPEED_BOUND * c.v_max_mps)
             self.blocker_, self.near_ = self.nobody_
             return
-        ii, kk = (dist < c.look_m).nonzero()
-        pairs = zip(
-            ii.tolist(), kk.tolist(), dist[ii, kk].tolist(), rel[ii, kk].tolist(), strict=True
-        )
         contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
         two_a, credit = 1.0 / inv2a, 0.5 / c.wheel_decel_
-        sign = [(vj > 0.0) - (vj < 0.0) for vj in v]
         vprev = self.v_cmd_.tolist()
-        hc = [h.conjugate() for h in hs]
         limit, near, blocker = [np.inf] * m, [np.inf] * m, [-1] * m
         for i, k, d, r in pairs:
+            vi = v[i]
+            if vi == 0.0:
+                continue
             d = d if d > 1e-9 else 1e-9
-            toward = (r * hc[i]).real / d * sign[i]
+            toward = (r * hs[i].conjugate()).real / d
+            if vi < 0.0:
+                toward = -toward
             if toward <= 0.0:
                 continue
-            back = -(r * hc[k]).real / d * vprev[k]  # how fast k comes closer to i
+            vk = vprev[k]
+            back = -(r * hs[k].conjugate()).real / d * vk if vk else 0.0  # k coming closer
             gap = d - contact if d > contact else 0.0
             their = back * (react + back * inv2a) if back > 0.0 else -back * back * credit
             if their > 0.5 * gap:
@@ -234,14 +263,14 @@ class SmallTeamMixin:
                 limit[i] = cap
             if toward > _COS_AHEAD and d < near[i]:
                 near[i], blocker[i] = d, k
-        for j in range(m):
+        for j in movers:
             if limit[j] < abs(v[j]):
                 v[j] = limit[j] if v[j] > 0.0 else -limit[j]
         self.blocker_, self.near_ = np.array(blocker), np.array(near)
         closest = min(near)
         if closest < c.keep_right_m:
             turn = KEEP_RIGHT_GAIN * c.omega_max_radps
-            for j in range(m):
+            for j in movers:
                 o = blocker[j]
                 if near[j] < c.keep_right_m:
                     if not (state[o] == DRIVING and cos(ths[j] - ths[o]) > 0.5):
@@ -251,7 +280,7 @@ class SmallTeamMixin:
             yielding = self.yielding_.tolist()
             pushers = [
                 j
-                for j in range(m)
+                for j in movers
                 if state[j] == DRIVING
                 and near[j] < reach
                 and state[blocker[j]] == IDLE

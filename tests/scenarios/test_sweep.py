@@ -207,7 +207,7 @@ BAD = [
     ),
     ('"expt"]', '"exptt"]', "sweep.allocators[1]: unknown allocator 'exptt' (did you mean"),
     ("[0.05, 0.3, 0.5]", "[0.05, 5.0]", "grid.experience.delta_u: must be in [0, 2]"),
-    ("n_min\" = 3", "n_min\" = 2.5", "fixed.experience.n_min: must be an integer"),
+    ('n_min" = 3', 'n_min" = 2.5', "fixed.experience.n_min: must be an integer"),
     ("seeds = 5", "seeds = 0", "sweep.seeds: need at least one seed"),
     ("seeds = 5", 'seeds = 5\ncosts = ["distance"]', "sweep.costs[0]: cost model 'distance' needs"),
     ('["paper"]', '["papr"]', "did you mean 'paper'?"),

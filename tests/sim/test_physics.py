@@ -357,3 +357,61 @@ def test_a_robot_pushed_off_its_path_near_an_obstacle_heads_back_to_the_path():
     c = DiffDriveController(DriveSpec(), 0.1)
     heading = np.exp(-0.3j)  # straight for the waypoint: down and right, past the corner
     assert c.wall_cap(np.conj([heading]), np.array([1.5]), to_box)[0] < 0.5
+
+
+def test_nearest_obstacle_point_in_python_equals_the_array_version():
+    """``to_obstacle_one`` (bounding boxes skipped when no nearer) finds the same point."""
+    box = ((5.0, 1.0), (7.0, 1.0), (7.0, 3.0), (5.0, 3.0))
+    tri = ((12.0, 4.0), (16.0, 4.5), (14.0, 8.0))
+    walls = [((0, 0), (20, 0)), ((20, 0), (20, 10)), ((20, 10), (0, 10)), ((0, 10), (0, 0))]
+    f = PathFollower(1, 1.5, [box, tri, *walls], R)
+    z = np.random.default_rng(3).uniform((0, 0), (20, 10), size=(500, 2)) @ np.array([1, 1j])
+    ours = np.array([f.to_obstacle_one(p) for p in z.tolist()])
+    np.testing.assert_allclose(ours, f.to_obstacle(z), rtol=0, atol=1e-12)
+
+
+def test_both_control_periods_agree_in_a_crowd_with_caps_and_keep_right(monkeypatch):
+    """A head-on pair passing beside an obstacle and between standing robots, and a crossing
+    robot: the scalar and the array control period command the same wheels every period; the
+    robots come within keep-right distance, so the proximity caps and keep-right act."""
+    starts = [(4.5, 5.0), (19.0, 5.0), (9.0, 6.0), (9.0, 3.3), (6.0, 1.5), (13.0, 8.5)]
+    sites = [(18.0, 5.0), (2.0, 5.0), (9.0, 6.0), (9.0, 3.3), (16.0, 8.0), (13.0, 8.5)]
+    box = (((11.5, 5.6), (13.0, 5.6), (13.0, 7.2), (11.5, 7.2)),)
+    logs = []
+    for limit in (10**6, 0):
+        monkeypatch.setattr(sim.physics, "SMALL_TEAM", limit)
+        world = PymunkWorld(scenario(starts, box, sites=sites))
+        send(world, [0, 1, 4], [sites[0], sites[1], sites[4]])
+        log = []
+        for _ in range(60):  # 6 s, one control period at a time
+            world.advance(0.1)
+            near = world.near_.copy()  # only robots within look_m can bind: farther is inf
+            near[near >= world.controller.look_m] = np.inf
+            log.append((world.v_cmd_.copy(), world.q_cmd_.copy(), near))
+        logs.append(log)
+    for (v0, q0, n0), (v1, q1, n1) in zip(*logs, strict=True):
+        np.testing.assert_allclose(v0, v1, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(q0, q1, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(n0, n1, rtol=0, atol=1e-9)
+    near = np.array([n for _, _, n in logs[0]])
+    assert near.min() < DiffDriveController(DriveSpec(), 0.1).keep_right_m
+
+
+def test_obstacle_caps_in_python_equal_the_array_version():
+    """Robots off their path near obstacles and walls, driving or backing at any heading: the
+    scalar speed cap toward the nearest obstacle equals ``DiffDriveController.wall_cap``."""
+    box = (((5.0, 1.0), (7.0, 1.0), (7.0, 3.0), (5.0, 3.0)),)
+    world = PymunkWorld(scenario([(1.0, 1.0)], box))
+    rng = np.random.default_rng(5)
+    z = rng.uniform((4.2, 0.3), (7.8, 3.8), size=(3000, 2))  # around the box, near the wall
+    z = z[(np.abs(z[:, 0] - 6.0) > 1.0 + R) | (np.abs(z[:, 1] - 2.0) > 1.0 + R)][:300]
+    z = z @ np.array([1, 1j])
+    h = np.exp(1j * rng.uniform(-np.pi, np.pi, 300))
+    v = rng.uniform(-1.5, 1.5, 300)
+    v[::7] = 0.0
+    ours = v.tolist()
+    world._obstacle_caps_small(z.tolist(), h.tolist(), ours, list(range(300)))
+    theirs = v.copy()
+    world._obstacle_caps(z, h.conj(), theirs, np.arange(300))
+    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12)
+    assert (np.abs(theirs) < np.abs(v) - 0.1).sum() > 20  # many were capped

@@ -26,7 +26,13 @@ What runs at which rate:
 
 The control period exists twice with the same formulas: over numpy arrays (``sim.jobs``,
 ``sim.drive``), and robot by robot in plain Python for teams of up to ``SMALL_TEAM`` robots
-(``sim.small``), where numpy's per-call overhead would dominate; the tests run both.
+(``sim.small``), where numpy's per-call overhead would dominate; the tests run both and check
+that they command the same wheels period by period. The scalar one also skips what cannot
+change: it looks only at pairs with a steering robot (a standing robot has no speed to cap)
+and sleeps the proximity check until a steering robot could come within ``look_m`` of
+another (every event wakes it), and it writes only the motors whose command changed (a robot
+stopped and staying stopped keeps its control body as it is: with ``max_bias = 0`` the joints
+match velocities only, so where that body stands does not matter).
 
 A task's robot plans a path to the site, drives, arrives within ``arrive_tol_m`` (or beside robots
 already standing at the site), works for the type's execution time and stays where it finished.

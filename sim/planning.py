@@ -96,6 +96,13 @@ class GridPlanner:
             self.real_[k, : len(p)] = True
         self.bb_lo_ = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
         self.bb_hi_ = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
+        self.box_ = (*(self.lo_ - _TOL_M).tolist(), *(self.hi_ + _TOL_M).tolist())
+        self.scalar_ = []  # the same as Python floats, for single queries (blocked_one, free_one)
+        for k, p in enumerate(polys):
+            normal, offset = halfplanes(p)
+            pairs = zip(normal.tolist(), offset.tolist(), strict=True)
+            edges = [(nx, ny, c) for (nx, ny), c in pairs]
+            self.scalar_.append((*self.bb_lo_[k].tolist(), *self.bb_hi_[k].tolist(), edges))
         verts = np.concatenate(polys) if polys else np.zeros((0, 2))
         self.vertices_ = verts[self.free(verts)]
         self._build_graph()
@@ -172,6 +179,45 @@ class GridPlanner:
             never = ((den == 0) & (num <= 0)).any(axis=1)
             out[si[(t_lo < t_hi) & ~never]] = True
         return out
+
+    def blocked_one(self, ax: float, ay: float, bx: float, by: float) -> bool:
+        """:meth:`blocked` for one segment (ax, ay) -> (bx, by), in plain Python."""
+        lox, hix = (ax, bx) if ax < bx else (bx, ax)
+        loy, hiy = (ay, by) if ay < by else (by, ay)
+        dx, dy = bx - ax, by - ay
+        for x0, y0, x1, y1, edges in self.scalar_:
+            if not (lox < x1 and loy < y1 and hix > x0 and hiy > y0):
+                continue
+            t_lo, t_hi = 0.0, 1.0
+            for nx, ny, c in edges:
+                num = c - _TOL_M - (nx * ax + ny * ay)
+                den = nx * dx + ny * dy
+                if den > 0.0:
+                    t = num / den
+                    t_hi = t if t < t_hi else t_hi
+                elif den < 0.0:
+                    t = num / den
+                    t_lo = t if t > t_lo else t_lo
+                elif num <= 0.0:  # parallel to this edge and outside it: misses the polygon
+                    t_lo, t_hi = 1.0, 0.0
+                    break
+            if t_lo < t_hi:
+                return True
+        return False
+
+    def free_one(self, x: float, y: float) -> bool:
+        """:meth:`free` for one point, in plain Python."""
+        x0, y0, x1, y1 = self.box_
+        if not (x0 <= x <= x1 and y0 <= y <= y1):
+            return False
+        for bx0, by0, bx1, by1, edges in self.scalar_:
+            if bx0 <= x <= bx1 and by0 <= y <= by1:  # inside is strictly inside every edge
+                for nx, ny, c in edges:
+                    if nx * x + ny * y - c >= -_TOL_M:
+                        break
+                else:
+                    return False
+        return True
 
     def snap(self, xy: np.ndarray) -> np.ndarray:
         """Push points (n, 2) that lie inside an inflated obstacle or the wall margin out to the
@@ -273,18 +319,27 @@ class GridPlanner:
         """Waypoints (P, 2) from ``start_xy`` to ``goal_xy``, both included; (0, 2) if no path."""
         start = np.asarray(start_xy, dtype=float).reshape(2)
         goal = np.asarray(goal_xy, dtype=float).reshape(2)
-        s, g = self.snap(np.stack([start, goal]))
+        if self.free_one(*start.tolist()) and self.free_one(*goal.tolist()):
+            s, g = start, goal  # the usual case: no snapping needed
+        else:
+            s, g = self.snap(np.stack([start, goal]))
         pts = [start] if np.linalg.norm(s - start) > 0 else []
         pts.append(s)
-        if self.blocked(s, g)[0]:
+        sx, sy = s.tolist()
+        if self.blocked_one(sx, sy, *g.tolist()):
             if not len(self.vertices_):
                 return np.zeros((0, 2))
             dist, last = self._field(g)
             lower = np.linalg.norm(self.vertices_ - s, axis=1) + dist
-            cost, via = self._first_visible(s[None], np.zeros(1, dtype=int), lower[None])
-            if not np.isfinite(cost[0]):
+            u = -1  # the first vertex visible from s, in order of the cost through it
+            for k in np.argsort(lower).tolist():
+                if not np.isfinite(lower[k]):
+                    break
+                if not self.blocked_one(sx, sy, *self.vertices_[k].tolist()):
+                    u = k
+                    break
+            if u < 0:
                 return np.zeros((0, 2))
-            u = int(via[0])
             chain = [int(last[u])]
             while chain[-1] != u:
                 chain.append(int(self.pred_[u, chain[-1]]))
@@ -329,7 +384,7 @@ class GridPlanner:
     def _hop(self, a: complex, b: complex, avoid: np.ndarray, keep_m: float) -> np.ndarray:
         """[a, b] as a (2, 2) path if b is free, seen from a and ``keep_m`` from ``avoid``."""
         start, end = np.array([a.real, a.imag]), np.array([b.real, b.imag])
-        if not self.free(end)[0] or self.blocked(start, end)[0]:
+        if not self.free_one(b.real, b.imag) or self.blocked_one(a.real, a.imag, b.real, b.imag):
             return np.zeros((0, 2))
         if len(avoid) and np.abs(np.asarray(avoid) - b).min() < keep_m:
             return np.zeros((0, 2))

@@ -152,3 +152,21 @@ def test_occupancy_grid_marks_obstacles_and_walls():
     assert grid.shape == (80, 80)
     assert grid[40, 40] and grid[0, 0] and not grid[10, 10]
     assert planner.reachable([2.0, 2.0]) and not planner.reachable([10.0, 10.0])
+
+
+@pytest.mark.parametrize("obstacles", [(BOX, TRIANGLE), ()])
+def test_single_queries_in_python_equal_the_array_versions(obstacles):
+    """``blocked_one`` / ``free_one`` (path, side steps) decide as ``blocked`` / ``free`` do,
+    segments grazing the inflated corners included, and the path's length is the distance."""
+    planner = GridPlanner(spatial(obstacles))
+    rng = np.random.default_rng(11)
+    a, b = rng.uniform(-1, 21, size=(2, 4000, 2))
+    corners = np.concatenate(planner.polygons_) if obstacles else np.zeros((0, 2))
+    b[: len(corners)] = corners  # ends exactly on inflated corners
+    ours = [planner.blocked_one(*p, *q) for p, q in zip(a.tolist(), b.tolist(), strict=True)]
+    assert ours == planner.blocked(a, b).tolist()
+    assert [planner.free_one(*p) for p in a.tolist()] == planner.free(a).tolist()
+    starts, goals = a[planner.free(a)][:300], b[planner.free(b)][:300]
+    n = min(len(starts), len(goals))
+    lengths = [path_length(planner.path(s, g)) for s, g in zip(starts[:n], goals[:n], strict=True)]
+    np.testing.assert_allclose(lengths, planner.distances(starts[:n], goals[:n]).diagonal())

@@ -1,11 +1,13 @@
 """Speed of the pymunk world: our whole loop against bare ``space.step`` on the same bodies.
 
 For each size a synthetic arena is built (about 13 m^2 per robot, one box obstacle per ten
-robots, task sites scattered in the free space). Every robot is kept busy: whenever one is free it
-is sent to a random site, as an allocator would, so the measured loop is physics plus control,
-planning, task bookkeeping, contact sampling and trajectory recording. The bare loop then steps the
-very same space (same bodies, joints and contacts) with nothing around it. Both are timed in the
-same process, one after the other, so ``bare_ratio`` is a ratio measured in one run.
+robots, task sites scattered in the free space). The robots are kept busy: every ``ROUND_S``
+(10 s, the paper's announcement interval) as many tasks as there are free robots are announced
+at random sites and auctioned (``mrta bench`` passes the market auction), so the measured loop is
+allocation, physics, control, planning, task bookkeeping, contact sampling and recording. The
+bare loop then steps the very same space (same bodies, joints and contacts) with nothing around
+it. Both are timed in the same process, one after the other, so ``bare_ratio`` is a ratio
+measured in one run.
 
 The space sets its solver iterations by the contacts (``sim.contacts``: one iteration while no
 contact touches, which is exact then, ten while one does), and the bare loop steps it as it is,
@@ -26,7 +28,8 @@ from sim.recording import TrajectoryRecorder
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
 from sim.tasks import Batch
 
-DEFAULT_SIM_S = {10: 600.0, 100: 120.0, 1000: 12.0}  # a second or two of wall time each
+DEFAULT_SIM_S = {10: 600.0, 100: 120.0, 1000: 30.0}  # a second or two of wall time each
+ROUND_S = 10.0  # with an allocator: a round of announcements and an auction this often
 
 
 def bench_scenario(
@@ -66,12 +69,20 @@ def bench_scenario(
     return Scenario(f"bench{n}", ("T",), robots, ((1.0,),) * n, (2.0,), spatial=spatial)
 
 
-def _run(world: PymunkWorld, sim_s: float, rng: np.random.Generator) -> tuple[int, float]:
-    """Keep every robot busy for ``sim_s`` simulated seconds; (physics steps, wall seconds)."""
+def _run(
+    world: PymunkWorld, sim_s: float, rng: np.random.Generator, allocate=None
+) -> tuple[int, float]:
+    """Keep the robots busy for ``sim_s`` simulated seconds; (physics steps, wall seconds).
+
+    Without ``allocate`` every simulated second each free robot is sent to a random site.
+    With it, rounds come every ``ROUND_S`` as in the task protocol: as many tasks as there
+    are free robots are announced at random sites and ``allocate(batch) -> (assignment,
+    bids)`` (the market auction in ``mrta bench``) hands them out."""
     sites = np.asarray(world.spatial.sites[0], dtype=float)
     next_id = 0
     steps0 = world.steps_
     wall0 = time.perf_counter()
+    step_s = 1.0 if allocate is None else ROUND_S
     while world.time_s < sim_s - 1e-9:
         free = np.flatnonzero(world.task_ < 0)
         if free.size:
@@ -79,8 +90,13 @@ def _run(world: PymunkWorld, sim_s: float, rng: np.random.Generator) -> tuple[in
             next_id += free.size
             pick = sites[rng.integers(0, len(sites), size=free.size)]
             batch = Batch(0, 0, ids, np.zeros(free.size, int), np.zeros(free.size, bool), pick)
-            world.apply(batch, free, np.zeros(free.size))
-        world.advance(1.0)
+            if allocate is None:
+                world.apply(batch, free, np.zeros(free.size))
+            else:
+                assignment, bids = allocate(batch)
+                won = np.maximum(assignment, 0)
+                world.apply(batch, assignment, bids[won, np.arange(free.size)])
+        world.advance(min(step_s, sim_s - world.time_s))
     return world.steps_ - steps0, time.perf_counter() - wall0
 
 
@@ -89,6 +105,7 @@ def bench_sim(
     sim_seconds: float | dict[int, float] | None = None,
     rng: np.random.Generator | None = None,
     control_hz: float = 10.0,
+    allocator=None,
 ) -> dict[str, dict[str, float]]:
     """Measure the pymunk world's speed for each robot count.
 
@@ -98,13 +115,17 @@ def bench_sim(
             ``DEFAULT_SIM_S``).
         rng: task sites and assignments; ``default_rng(0)`` if None.
         control_hz: control rate (physics runs at 60 Hz).
+        allocator: ``allocator(scenario, world)`` returns the ``allocate(batch)`` callable of
+            :func:`_run` (the auction), or None to hand tasks out in order.
 
     Returns:
         ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s",
-        "bare10_steps_per_s", "contact_share"}}``: physics steps of the full loop per wall
-        second, simulated / wall seconds, full-loop time per step over bare ``space.step`` time
-        per step, the bare loop's steps per second (as the world sets the space, and with ten
-        solver iterations throughout) and the share of loop steps with a contact touching.
+        "bare10_steps_per_s", "contact_share", "bids_ms"}}``: physics steps of the full loop
+        per wall second, simulated / wall seconds, full-loop time per step over bare
+        ``space.step`` time per step, the bare loop's steps per second (as the world sets the
+        space, and with ten solver iterations throughout), the share of loop steps with a
+        contact touching, and the milliseconds the planned-distance bids of every robot on 7
+        tasks take (:func:`_bids_ms`).
     """
     rng = np.random.default_rng(0) if rng is None else rng
     out = {}
@@ -123,9 +144,11 @@ def bench_sim(
             [r.name for r in scenario.robots],
         )
         world.reset(rng)
-        _run(world, min(2.0, sim_s), rng)  # warm-up: first paths and distance fields
+        allocate = None if allocator is None else allocator(scenario, world)
+        warm_s = 2.0 if allocator is None else ROUND_S + 2.0  # first paths, distance fields
+        _run(world, min(warm_s, sim_s), rng, allocate)
         touching0 = world.contacts.steps_touching
-        steps, wall = _run(world, world.time_s + sim_s, rng)
+        steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
         share = (world.contacts.steps_touching - touching0) / steps
         bare = _bare(world, max(60, steps // 4))
         free = sim.contacts.FREE_ITERATIONS
@@ -134,6 +157,7 @@ def bench_sim(
             bare10 = _bare(world, max(60, steps // 4))
         finally:
             sim.contacts.FREE_ITERATIONS = free
+        bids_ms = _bids_ms(world, rng)
         out[str(n)] = {
             "steps_per_s": steps / wall,
             "rtf": steps * world.dt_s / wall,
@@ -141,8 +165,23 @@ def bench_sim(
             "bare_steps_per_s": 1.0 / bare,
             "bare10_steps_per_s": 1.0 / bare10,
             "contact_share": share,
+            "bids_ms": bids_ms,
         }
     return out
+
+
+def _bids_ms(world: PymunkWorld, rng: np.random.Generator, tasks: int = 7) -> float:
+    """Milliseconds for the planned-distance bids of every robot on ``tasks`` random sites
+    (``GridPlanner.distances``, what the ``distance`` cost model does each round); best of 3."""
+    sites = np.asarray(world.spatial.sites[0], dtype=float)
+    pick = sites[rng.integers(0, len(sites), size=tasks)]
+    xy, _ = world.poses()
+    best = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        world.planner.distances(xy, pick)
+        best = min(best, time.perf_counter() - t0)
+    return 1e3 * best
 
 
 def _bare(world: PymunkWorld, n: int) -> float:

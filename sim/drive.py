@@ -256,17 +256,19 @@ class DiffDriveController:
     ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, float]:
         """Cap each robot's speed so that it and the robots around it can stop before touching.
 
-        For each neighbour in front (bearing cosine tau > 0) a robot keeps a share s of the gap
-        g to it: g less the neighbour's own stopping distance if it comes closer, but never less
-        than g / 2 (a neighbour that closes in brakes too); g plus the distance the neighbour
-        needs to stop if it moves away (braking at the wheels' limit: a leader that brakes hard
-        still leaves that much). Driving at v for one control period T and then braking at
-        ``yield_mps2`` = a
-        covers tau (v T + v^2 / 2a) toward the neighbour, so v <= a (sqrt(T^2 + 2 s / (a tau))
-        - T). On contact ``CREEP_MPS`` of closing speed is left: robots may nudge, never ram
-        (pymunk finds contacts once shapes overlap, so the closing speed at contact sets the
-        overlap). Moving sideways or away is free. The nearest robot within ``AHEAD_DEG`` of the
-        direction of travel is reported as the one in the way.
+        Driving at v for one control period T and then braking at ``yield_mps2`` = a covers
+        tau (v T + v^2 / 2a) toward a neighbour at bearing cosine tau > 0, so keeping that within
+        a share s of the gap g means v <= a (sqrt(T^2 + 2 s / (a tau)) - T). The shares of a
+        pair never add up to more than g, so both can always stop in time: with each robot's
+        need (that distance at the speed it committed to last period, toward the other; a
+        neighbour moving away brakes at the wheels' limit and so adds the distance it still
+        travels), a robot gets g less the neighbour's need less the neighbour's half of the room
+        that is left, min(g - theirs, (g - theirs + mine) / 2), at least 0. A robot that is
+        already committed to most of the gap keeps it, and one standing beside it (or turning
+        onto it) may not drive into it. On contact ``CREEP_MPS`` of closing speed is left: robots
+        may nudge, never ram (pymunk finds contacts once shapes overlap, so the closing speed at
+        contact sets the overlap). Moving sideways or away is free. The nearest robot within
+        ``AHEAD_DEG`` of the direction of travel is reported as the one in the way.
 
         Args:
             z: (m,) positions x + iy; hc: (m,) conjugate unit headings; v_mps: (m,) speed
@@ -291,8 +293,8 @@ class DiffDriveController:
                 return None, None, None, apart
             rel *= hc[:, None]
             cos = rel.real / dist  # bearing cosine of k from i's heading
-            back = cos * v_prev_mps[:, None]  # how fast i comes closer to k
-            back = back.T  # ... and k to i
+            mine = cos * v_prev_mps[:, None]  # how fast i comes closer to k
+            back = mine.T.copy()  # ... and k to i
             cols = None
         else:
             xy = np.column_stack([z.real, z.imag])
@@ -302,6 +304,7 @@ class DiffDriveController:
             cols = np.minimum(idx[:, 1:], m - 1)
             rel = z[cols] - z[:, None]
             cos = (rel * hc[:, None]).real / dist
+            mine = cos * v_prev_mps[:, None]
             back = (-rel * hc[cols]).real / dist * v_prev_mps[cols]
             apart = 0.0
         toward = cos * np.sign(v_mps)[:, None]
@@ -309,12 +312,21 @@ class DiffDriveController:
         np.maximum(gap, 0.0, out=gap)
         away = np.minimum(back, 0.0)  # k moves away: it would brake over away^2 / 2 a_wheel
         np.maximum(back, 0.0, out=back)
-        their = back * self.inv2a_
-        their += self.react_s
-        their *= back
+        # stopping distances toward each other at the committed speeds (one period, then a)
+        stop = np.abs(v_prev_mps)
+        stop *= self.inv2a_
+        stop += self.react_s  # per robot: distance along its heading per m/s of its speed
+        their = back * (stop[None, :] if cols is None else stop[cols])
         their -= away * away * (0.5 / self.wheel_decel_)
-        share = np.minimum(their, 0.5 * gap, out=their)
-        np.subtract(gap, share, out=share)
+        np.maximum(mine, 0.0, out=mine)
+        mine *= stop[:, None]
+        # i keeps the gap less k's stopping distance less k's half of the room left over:
+        # min(g - their, (g - their + mine) / 2), never below 0
+        share = np.subtract(gap, their, out=their)
+        mine += share
+        mine *= 0.5
+        np.minimum(share, mine, out=share)
+        np.maximum(share, 0.0, out=share)
         tau = np.maximum(toward, 1e-9)  # behind or beside: tau tiny, the cap never binds
         limit = self._cap(share, tau).min(axis=1)
         ahead = np.where(toward > _COS_AHEAD, dist, np.inf)

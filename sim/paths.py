@@ -221,6 +221,23 @@ class PathFollower:
             aim[rows] -= back * self.unit_c_[rows].conj()
         return aim, gap, gap + self.after_, self.corner2_, rows
 
+    def drifting(self, z: np.ndarray, h: np.ndarray, v_mps: np.ndarray, react_s: float, inv2a):
+        """Robots whose stopping point lies beyond the free width of their segment, or None.
+
+        A robot heads straight for its waypoint only once it is aligned: turning in, veering
+        round another robot or pushed askew it drives along its heading h, and at speed v
+        (signed) it covers v (react_s + |v| inv2a) that way before it stands. Where that carries
+        it past the free width, the obstacle cap must watch it before it gets there (the free
+        width ends where the robot touches the obstacle). Robots without a path never drift.
+        """
+        side = ((self.tgt_ - z) * self.unit_c_).imag  # minus the offset to the left
+        lat = (h * self.unit_c_).imag  # leftward share of the heading
+        lat *= v_mps * (react_s + np.abs(v_mps) * inv2a)
+        side -= lat
+        out = side < self.free_[0]
+        out |= side > self.free_[1]
+        return out.nonzero()[0] if np.count_nonzero(out) else None
+
     def to_obstacle(self, z: np.ndarray) -> np.ndarray:
         """From each point z (k,) to the nearest point of any obstacle or wall (x + iy)."""
         if not self.n_owner_ or not len(z):

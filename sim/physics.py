@@ -288,6 +288,13 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
         else:
             self.blocker_, self.near_ = self.nobody_
         rows = self.off_path_
+        if self.n_steer_:  # also robots whose heading could carry them out of the free width
+            v_cmd = self.v_cmd_
+            reach = np.where(np.abs(v) >= np.abs(v_cmd), v, v_cmd)
+            c = self.controller
+            drift = self.follower.drifting(z, h, reach, c.react_s, c.inv2a_)
+            if drift is not None:
+                rows = drift if rows is None else np.union1d(rows, drift)
         if self.n_backoff_:  # backing off blind, without a path: mind the obstacles too
             back = (self.backoff_until_s_ > t).nonzero()[0]
             rows = back if rows is None else np.union1d(rows, back)

@@ -113,6 +113,14 @@ class SmallTeamMixin:
             self._near_small(zn, zs, ths, hs, hn, state, v, w, t)
         else:
             self.blocker_, self.near_ = self.nobody_
+        if steered:  # heading out of the free width before it could stop (PathFollower.drifting)
+            react, inv2a, v0s = c.react_s, c.inv2a_, self.v_cmd_.tolist()
+            for j in steered:
+                sj = v[j] if abs(v[j]) >= abs(v0s[j]) else v0s[j]
+                side = ((tgt[j] - zs[j]) * unit_c[j]).imag
+                side -= (hs[j] * unit_c[j]).imag * (sj * (react + abs(sj) * inv2a))
+                if (side < free0[j] or side > free1[j]) and j not in off:
+                    off.append(j)
         if off or backing:  # beyond the free width, or backing off blind: mind the obstacles
             self._obstacle_caps_small(zs, hs, v, off + backing)
         # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----
@@ -245,18 +253,25 @@ class SmallTeamMixin:
             if vi == 0.0:
                 continue
             d = d if d > 1e-9 else 1e-9
-            toward = (r * hs[i].conjugate()).real / d
-            if vi < 0.0:
-                toward = -toward
+            cos_i = (r * hs[i].conjugate()).real / d
+            toward = -cos_i if vi < 0.0 else cos_i
             if toward <= 0.0:
                 continue
             vk = vprev[k]
             back = -(r * hs[k].conjugate()).real / d * vk if vk else 0.0  # k coming closer
             gap = d - contact if d > contact else 0.0
-            their = back * (react + back * inv2a) if back > 0.0 else -back * back * credit
-            if their > 0.5 * gap:
-                their = 0.5 * gap
-            cap = sqrt((gap - their) / toward * two_a + at2) - at
+            if back > 0.0:  # k's stopping distance toward i at its committed speed
+                their = back * (react + abs(vk) * inv2a)
+            else:  # k moves away: the distance it still travels while braking
+                their = -back * back * credit
+            vi0 = vprev[i]
+            mine = cos_i * vi0  # how fast i comes closer to k, and its stopping distance
+            mine = mine * (react + abs(vi0) * inv2a) if mine > 0.0 else 0.0
+            share = gap - their  # i keeps g - theirs less k's half of the room left over
+            half = 0.5 * (share + mine)
+            share = half if half < share else share
+            share = share if share > 0.0 else 0.0
+            cap = sqrt(share / toward * two_a + at2) - at
             floor = CREEP_MPS / toward
             cap = floor if cap < floor else cap
             if cap < limit[i]:

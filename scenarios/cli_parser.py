@@ -153,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="cost models x allocators side by side (spatial scenarios): table and plot",
         description="Run every allocator under every cost model on the same seeded streams and "
         "write compare.json, compare.md and compare.png (completion per priority, distance "
-        "driven, waiting of high-priority tasks, learning space; 95%% CI over seeds).",
+        "driven, waiting of high-priority tasks, learning space; 95% CI over seeds).",
     )
     c.add_argument("scenario")
     c.add_argument(

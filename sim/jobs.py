@@ -148,8 +148,8 @@ class JobsMixin:
         self.n_yield_ = int(np.count_nonzero(self.yielding_))
         self.n_steer_ = int(np.count_nonzero(self.state_ == DRIVING)) + self.n_yield_
         self.state_list_ = self.state_.tolist()  # the same as Python lists (small teams)
-        self.steer_list_ = (self.state_ == DRIVING) | self.yielding_
-        self.steer_list_ = self.steer_list_.nonzero()[0].tolist()
+        steering = (self.state_ == DRIVING) | self.yielding_  # driving, backing off, yielding
+        self.steer_list_ = steering.nonzero()[0].tolist()
         self.stuck_check_s_ = self.prox_check_s_ = -np.inf
         self.resting_ = False
 

@@ -9,7 +9,10 @@ cannot touch an obstacle while |c| is below the segment's distance to the obstac
 less the robot radius. That *free width* is computed per segment and side when a path is set; a
 robot pushed out farther steers for the path ``LOOKAHEAD_M`` ahead instead, and the controller
 caps its speed toward the nearest obstacle (``to_obstacle``, ``DiffDriveController.wall_cap``) as
-toward a robot that stands still, until it is back within the free width.
+toward a robot that stands still, until it is back within the free width. A robot not yet
+heading for T (turning in, veering round another robot) drives along its heading, not toward T,
+and the free width ends where it touches the obstacle: it is capped the same way as soon as the
+point where it could stop lies beyond the free width (``drifting``).
 """
 
 from __future__ import annotations
@@ -222,20 +225,21 @@ class PathFollower:
         return aim, gap, gap + self.after_, self.corner2_, rows
 
     def drifting(self, z: np.ndarray, h: np.ndarray, v_mps: np.ndarray, react_s: float, inv2a):
-        """Robots whose stopping point lies beyond the free width of their segment, or None.
+        """Robots beyond the free width of their segment or whose stopping point is, or None.
 
-        A robot heads straight for its waypoint only once it is aligned: turning in, veering
-        round another robot or pushed askew it drives along its heading h, and at speed v
-        (signed) it covers v (react_s + |v| inv2a) that way before it stands. Where that carries
-        it past the free width, the obstacle cap must watch it before it gets there (the free
-        width ends where the robot touches the obstacle). Robots without a path never drift.
+        Straight for the waypoint keeps a robot within the free width only once it heads that
+        way: turning in, veering round another robot or pushed askew, it drives along its
+        heading h, and at speed v (signed) covers v (react_s + |v| inv2a) before it stands. The
+        free width ends where the robot would touch the obstacle, so the obstacle cap must watch
+        a robot whose stopping point lies beyond it, not only one already there. Robots without
+        a path never drift.
         """
         side = ((self.tgt_ - z) * self.unit_c_).imag  # minus the offset to the left
-        lat = (h * self.unit_c_).imag  # leftward share of the heading
-        lat *= v_mps * (react_s + np.abs(v_mps) * inv2a)
-        side -= lat
-        out = side < self.free_[0]
-        out |= side > self.free_[1]
+        stop = (h * self.unit_c_).imag  # leftward share of the heading
+        stop *= v_mps * (react_s + np.abs(v_mps) * inv2a)
+        np.subtract(side, stop, out=stop)  # the same at the stopping point
+        out = np.minimum(side, stop) < self.free_[0]
+        out |= np.maximum(side, stop, out=stop) > self.free_[1]
         return out.nonzero()[0] if np.count_nonzero(out) else None
 
     def to_obstacle(self, z: np.ndarray) -> np.ndarray:

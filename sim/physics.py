@@ -17,10 +17,10 @@ What runs at which rate:
   robots, keep-right and make-way until two robots could be within ``DiffDriveController.look_m``
   of each other (beyond, no cap binds); the arrival check until a driving robot could be in its
   arrival zone; the stuck check until the stalest robot could be stuck. The distance to the
-  nearest obstacle (and the speed cap toward it) is measured only for robots pushed beyond the
-  free width of their path or backing off without one. While no robot drives, yields or backs
-  off and every wheel has stopped, a period does only the recorder (with the poses it has) and
-  the task clock.
+  nearest obstacle (and the speed cap toward it) is measured only for robots beyond the free
+  width of their path, or that could be before they stop (``PathFollower.drifting``), or backing
+  off without one. While no robot drives, yields or backs off and every wheel has stopped, a
+  period does only the recorder (with the poses it has) and the task clock.
 - on events only (allocation, arrival, end of work, deadline, stuck, yield request, waypoint
   reached): per-robot Python, planning, and the refresh of the scalar next-event times.
 
@@ -288,13 +288,11 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
         else:
             self.blocker_, self.near_ = self.nobody_
         rows = self.off_path_
-        if self.n_steer_:  # also robots whose heading could carry them out of the free width
-            v_cmd = self.v_cmd_
+        if self.n_steer_:  # ... and the robots whose heading could carry them out of it
+            v_cmd = self.v_cmd_  # the speed next period lies between v_cmd and v
             reach = np.where(np.abs(v) >= np.abs(v_cmd), v, v_cmd)
             c = self.controller
-            drift = self.follower.drifting(z, h, reach, c.react_s, c.inv2a_)
-            if drift is not None:
-                rows = drift if rows is None else np.union1d(rows, drift)
+            rows = self.follower.drifting(z, h, reach, c.react_s, c.inv2a_)
         if self.n_backoff_:  # backing off blind, without a path: mind the obstacles too
             back = (self.backoff_until_s_ > t).nonzero()[0]
             rows = back if rows is None else np.union1d(rows, back)

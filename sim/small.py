@@ -6,10 +6,10 @@ floats and complex numbers is several times faster, and it skips what a robot do
 (one standing still costs a comparison). :class:`SmallTeamMixin` is that scalar twin of
 ``PymunkWorld._control`` (``sim.physics``) and of the array parts of ``sim.jobs``: the same
 formulas (``sim.drive.DiffDriveController``, ``sim.paths.PathFollower``), the same order, the
-same event handlers; only the proximity search keeps one numpy distance matrix, and rare work
-(waypoint switches, arrivals, stuck checks, make-way, obstacle caps) calls the array code.
-``PymunkWorld`` uses it up to ``SMALL_TEAM`` robots; ``tests/sim/test_physics.py`` runs the
-behaviour tests through both.
+same event handlers; rare work (waypoint switches, arrivals, stuck checks, make-way) calls the
+array code. ``PymunkWorld`` uses it up to ``SMALL_TEAM`` robots; ``tests/sim/test_physics.py``
+runs the behaviour tests through both and checks that they command the same wheels period by
+period.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ class SmallTeamMixin:
         self.last_th_[:] = thn
         # ---- tasks: steering targets, progress, yield, arrival (sim.jobs._jobs) ----
         state = self.state_list_  # state_ and the steered robots as lists, kept by _events
+        v0s = self.v_cmd_.tolist()  # speeds commanded last period
         backing = []
         if self.n_backoff_:
             until, replan = self.backoff_until_s_.tolist(), self.replan_.tolist()
@@ -110,11 +111,11 @@ class SmallTeamMixin:
         # ---- other robots (sim.drive.DiffDriveController.proximity), obstacles ----
         state = self.state_list_  # arrivals and ends of work may have changed it
         if t >= self.prox_check_s_:
-            self._near_small(zn, zs, ths, hs, hn, state, v, w, t)
+            self._near_small(zn, zs, ths, hs, hn, state, v, v0s, w, t)
         else:
             self.blocker_, self.near_ = self.nobody_
         if steered:  # heading out of the free width before it could stop (PathFollower.drifting)
-            react, inv2a, v0s = c.react_s, c.inv2a_, self.v_cmd_.tolist()
+            react, inv2a = c.react_s, c.inv2a_
             for j in steered:
                 sj = v[j] if abs(v[j]) >= abs(v0s[j]) else v0s[j]
                 side = ((tgt[j] - zs[j]) * unit_c[j]).imag
@@ -125,7 +126,7 @@ class SmallTeamMixin:
             self._obstacle_caps_small(zs, hs, v, off + backing)
         # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----
         s, hb, top = c.rim_step_mps, c.half_base_m, c.rim_max_mps
-        v0s, q0s = self.v_cmd_.tolist(), self.q_cmd_.tolist()
+        q0s = self.q_cmd_.tolist()
         write = motors.write_one
         moving = changed = False
         for j in range(m):
@@ -218,7 +219,7 @@ class SmallTeamMixin:
             if cap < abs(vj):
                 v[j] = cap if vj > 0.0 else -cap
 
-    def _near_small(self, zn, zs, ths, hs, hn, state, v, w, t: float) -> None:
+    def _near_small(self, zn, zs, ths, hs, hn, state, v, vprev, w, t: float) -> None:
         """Proximity caps, keep-right and make-way, over the pairs (i, k) with i steering.
 
         Only a robot that steers (drives, yields or backs off) can be capped, turn right or ask
@@ -246,7 +247,6 @@ class SmallTeamMixin:
             return
         contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
         two_a, credit = 1.0 / inv2a, 0.5 / c.wheel_decel_
-        vprev = self.v_cmd_.tolist()
         limit, near, blocker = [np.inf] * m, [np.inf] * m, [-1] * m
         for i, k, d, r in pairs:
             vi = v[i]

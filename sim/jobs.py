@@ -45,9 +45,11 @@ class JobsMixin:
             np.copyto(self.left_m_, left, where=steered)
             if self.n_yield_:
                 stop = self.yielding_ & ((left < 0.15) | (self.yield_until_s_ < t))
-                for j in stop.nonzero()[0].tolist():
-                    self._stop_yield(j)
-                    v[j] = w[j] = 0.0
+                if np.count_nonzero(stop):
+                    for j in stop.nonzero()[0].tolist():
+                        self._stop_yield(j, refresh=False)
+                        v[j] = w[j] = 0.0
+                    self._events()
             better = left < self.progress_m_
             better &= go
             if np.count_nonzero(better):
@@ -86,10 +88,10 @@ class JobsMixin:
             there &= gap <= sp.arrive_tol_m
             if queue.size:  # touching a robot that stands nearer the site: the site is taken,
                 # and working beside the robots already there counts as arrived
-                still = (self.state_ != DRIVING) & ~self.yielding_
-                nearer = np.abs(z[None, :] - self.site_[queue, None]) < gap[queue, None]
-                touch = np.abs(z[None, :] - z[queue, None]) <= self.reach_m_
-                there[queue] = (still & nearer & touch).any(axis=1)
+                zs = z[((self.state_ != DRIVING) & ~self.yielding_).nonzero()[0]]  # standing
+                nearer = np.abs(zs[None, :] - self.site_[queue, None]) < gap[queue, None]
+                nearer &= np.abs(zs[None, :] - z[queue, None]) <= self.reach_m_  # touching
+                there[queue] = nearer.any(axis=1)
             self._start_work(there.nonzero()[0].tolist(), v, w, t)
         nearest = float(np.where(go, gap, np.inf).min()) - zone
         self.site_check_s_ = t + max(nearest, 0.0) / (SPEED_BOUND * self.controller.v_max_mps)
@@ -111,12 +113,18 @@ class JobsMixin:
         if t + 1e-9 >= self.next_end_s_:
             self._finish_work(t)
         if t > self.next_deadline_s_:
-            for j in ((self.task_ >= 0) & (self.deadline_s_ < t)).nonzero()[0].tolist():
-                self._finish(j, t, False, "timeout: task not finished by its deadline")
+            late = ((self.task_ >= 0) & (self.deadline_s_ < t)).nonzero()[0]
+            for j in late.tolist():
+                self._finish(j, t, False, "timeout: task not finished by its deadline", False)
+            if late.size:
+                self._events()
 
     def _finish_work(self, t: float) -> None:
-        for j in ((self.state_ == WORKING) & (self.work_end_s_ <= t + 1e-9)).nonzero()[0]:
-            self._finish(int(j), float(self.work_end_s_[j]), True)
+        done = ((self.state_ == WORKING) & (self.work_end_s_ <= t + 1e-9)).nonzero()[0]
+        for j in done.tolist():
+            self._finish(j, float(self.work_end_s_[j]), True, refresh=False)
+        if done.size:
+            self._events()
 
     def _make_way(self, pushers, blocker, z, h, v, t: float) -> None:
         """Idle robots standing in a driving robot's way step aside (planning ignores robots)."""
@@ -125,17 +133,23 @@ class JobsMixin:
             if self.yielding_[b]:  # asked by another robot in this period
                 continue
             travel = h[j] if v[j] >= 0 else -h[j]
-            others = np.delete(z, b)
+            # the side step's end point must keep YIELD_STEP_M / 2 from the other robots: only
+            # those within 1.5 YIELD_STEP_M of b could be that close (2 for rounding)
+            close = np.abs(z - z[b]) < 2.0 * YIELD_STEP_M
+            close[b] = False
+            others = z[close]
             path = self.planner.side_step(z[b], z[j], travel, YIELD_STEP_M, others)
             if len(path):
                 self.follower.set_path(b, path)
                 self.yielding_[b], self.yield_until_s_[b] = True, t + YIELD_TIMEOUT_S
         self._events()
 
-    def _stop_yield(self, j: int) -> None:
+    def _stop_yield(self, j: int, refresh: bool = True) -> None:
+        """Robot j stops yielding (``refresh=False``: the caller calls ``_events`` after)."""
         self.yielding_[j] = False
         self.follower.clear(j)
-        self._events()
+        if refresh:
+            self._events()
 
     def _events(self) -> None:
         """Refresh the scalar next-event times and counts after a task event."""
@@ -147,9 +161,10 @@ class JobsMixin:
         self.n_backoff_ = int(np.count_nonzero(backing))
         self.n_yield_ = int(np.count_nonzero(self.yielding_))
         self.n_steer_ = int(np.count_nonzero(self.state_ == DRIVING)) + self.n_yield_
-        self.state_list_ = self.state_.tolist()  # the same as Python lists (small teams)
-        steering = (self.state_ == DRIVING) | self.yielding_  # driving, backing off, yielding
-        self.steer_list_ = steering.nonzero()[0].tolist()
+        if self.small_:  # the same as Python lists, for the scalar control period
+            self.state_list_ = self.state_.tolist()
+            steering = (self.state_ == DRIVING) | self.yielding_  # driving, backing off, yielding
+            self.steer_list_ = steering.nonzero()[0].tolist()
         self.stuck_check_s_ = self.prox_check_s_ = -np.inf
         self.resting_ = False
 
@@ -194,7 +209,11 @@ class JobsMixin:
         self.site_check_s_ = -np.inf
         self._events()
 
-    def _finish(self, j: int, t_done_s: float, ok: bool, reason: str = "") -> None:
+    def _finish(
+        self, j: int, t_done_s: float, ok: bool, reason: str = "", refresh: bool = True
+    ) -> None:
+        """Report robot j's task as a Completion and free the robot (``refresh=False``: the
+        caller calls ``_events`` once after a batch; nothing reads the event times between)."""
         task, t_alloc, bid = int(self.task_[j]), float(self.t_alloc_s_[j]), float(self.bid_[j])
         odo = float(self.moved_m_[j] - self.odo0_m_[j])
         self.done_.append(Completion(task, j, t_alloc, t_done_s, bid, odo, ok, reason))
@@ -205,7 +224,8 @@ class JobsMixin:
         self.backoff_until_s_[j] = -np.inf
         self.t_progress_s_[j] = np.inf
         self.follower.clear(j)
-        self._events()
+        if refresh:
+            self._events()
 
 
 def _xy(p) -> str:

@@ -100,7 +100,9 @@ class SmallTeamMixin:
                     self.t_progress_s_[j] = t
                 v[j], w[j] = vj, wj
             for j in stops:
-                self._stop_yield(j)
+                self._stop_yield(j, refresh=False)
+            if stops:
+                self._events()
             if t > self.stuck_check_s_:
                 self._stuck(np.array(go), t)
             if t >= self.site_check_s_:

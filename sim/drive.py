@@ -42,7 +42,7 @@ KEEP_RIGHT_GAIN = 0.25  # that turn, as a share of the top turn rate
 PROXIMITY_DECEL = 0.75  # share of the wheels' braking power planned for around robots and walls
 REACT_PERIODS = 1.0  # a command holds for this many control periods before the next can brake
 DENSE_MAX = 64  # up to this many robots the neighbour search is one (m, m) array
-NEIGHBOURS = 8  # beyond DENSE_MAX: the nearest robots a KD-tree returns per robot
+VERLET_SKIN_M = 1.0  # beyond DENSE_MAX: the neighbour list holds pairs this much beyond look_m
 AHEAD_DEG = 70.0  # a robot within this angle of the direction of travel is in the way
 ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
 _COS_TURN = float(np.cos(TURN_IN_PLACE_RAD))
@@ -213,8 +213,9 @@ class DiffDriveController:
         self.align_bias_ = -_COS_TURN * self.align_gain_
         self.at_, self.at2_, self.inv2a_ = a * t, (a * t) ** 2, 0.5 / a
         self.wheel_decel_ = drive.max_wheel_accel_radps2 * drive.wheel_radius_m
-        self.rows_ = np.zeros(0, dtype=int)
         self.diag_ = np.zeros((0, 0))
+        self.verlet_z_ = np.zeros(0, dtype=complex)  # positions when the Verlet list was built
+        self.verlet_ = (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
 
     def steer(
         self, hc: np.ndarray, delta: np.ndarray, gap_m: np.ndarray, corner2: np.ndarray
@@ -270,6 +271,13 @@ class DiffDriveController:
         contact sets the overlap). Moving sideways or away is free. The nearest robot within
         ``AHEAD_DEG`` of the direction of travel is reported as the one in the way.
 
+        The rule is applied to every pair closer than ``look_m`` = contact + 2 x the stopping
+        distance from top speed: farther apart, both can stop from top speed within their half of
+        the gap, so no cap is needed. Up to ``DENSE_MAX`` robots the pairs come from one (m, m)
+        distance array, beyond from a KD-tree (``cKDTree.query_pairs``); then the formulas run
+        over the pairs (i, k) in which i moves toward k, so a crowd costs what its close pairs
+        cost, not m x m.
+
         Args:
             z: (m,) positions x + iy; hc: (m,) conjugate unit headings; v_mps: (m,) speed
                 commands; v_prev_mps: (m,) speeds commanded in the last period.
@@ -277,37 +285,42 @@ class DiffDriveController:
         Returns:
             (m,) capped speeds, (m,) index of the nearest robot ahead (-1: none), (m,) its
             centre distance (inf: none) and the least distance between two robots (0 when not
-            known: beyond ``DENSE_MAX`` robots). When that distance is more than ``look_m`` no
-            cap binds and the three arrays are None.
+            known: beyond ``DENSE_MAX`` robots). When no two robots are closer than ``look_m``
+            the three arrays are None and that distance is at least ``look_m``.
         """
         m = len(v_mps)
         if m < 2:
             return None, None, None, np.inf
+        look = self.look_m
         if m <= DENSE_MAX:
-            rel = z - z[:, None]  # rel[i, k]: from robot i to robot k
-            dist = np.abs(rel)
-            np.maximum(dist, 1e-9, out=dist)
+            dist = np.abs(z - z[:, None])
             dist += self.diag_inf(m)  # a robot is infinitely far from itself
             apart = float(dist.min())
-            if apart > self.look_m:
+            if apart >= look:
                 return None, None, None, apart
-            rel *= hc[:, None]
-            cos = rel.real / dist  # bearing cosine of k from i's heading
-            mine = cos * v_prev_mps[:, None]  # how fast i comes closer to k
-            back = mine.T.copy()  # ... and k to i
-            cols = None
-        else:
-            xy = np.column_stack([z.real, z.imag])
-            k = min(m, NEIGHBOURS + 1)
-            dist, idx = cKDTree(xy).query(xy, k=k, distance_upper_bound=self.look_m)
-            dist = np.maximum(dist[:, 1:], 1e-9)  # column 0 is the robot itself; misses: inf
-            cols = np.minimum(idx[:, 1:], m - 1)
-            rel = z[cols] - z[:, None]
-            cos = (rel * hc[:, None]).real / dist
-            mine = cos * v_prev_mps[:, None]
-            back = (-rel * hc[cols]).real / dist * v_prev_mps[cols]
+            i, k = (dist < look).nonzero()
+        else:  # a superset of the pairs closer than look_m (Verlet list), moving robot first
+            i, k = self._candidates(z)
+            if not len(i):
+                return None, None, None, look  # all at least look_m apart
+            moving = (v_mps[i] != 0.0).nonzero()[0]
+            i, k = i[moving], k[moving]
             apart = 0.0
-        toward = cos * np.sign(v_mps)[:, None]
+        # (i, k): i could be capped because of k. Only i moving toward k (bearing cosine
+        # tau > 0 in its direction of travel) closer than look_m can be: the others never bind
+        rel = z[k] - z[i]
+        dist = np.abs(rel)
+        np.maximum(dist, 1e-9, out=dist)
+        cos = (rel * hc[i]).real
+        cos /= dist  # bearing cosine of k from i's heading
+        toward = cos * np.sign(v_mps)[i]
+        sel = (toward > 0.0) & (dist < look)
+        sel = sel.nonzero()[0]
+        i, k, rel, dist, cos, toward = i[sel], k[sel], rel[sel], dist[sel], cos[sel], toward[sel]
+        mine = cos * v_prev_mps[i]  # how fast i comes closer to k
+        back = (rel * hc[k]).real
+        back /= dist
+        back *= -v_prev_mps[k]  # ... and k to i
         gap = dist - self.contact_m
         np.maximum(gap, 0.0, out=gap)
         away = np.minimum(back, 0.0)  # k moves away: it would brake over away^2 / 2 a_wheel
@@ -316,10 +329,10 @@ class DiffDriveController:
         stop = np.abs(v_prev_mps)
         stop *= self.inv2a_
         stop += self.react_s  # per robot: distance along its heading per m/s of its speed
-        their = back * (stop[None, :] if cols is None else stop[cols])
+        their = back * stop[k]
         their -= away * away * (0.5 / self.wheel_decel_)
         np.maximum(mine, 0.0, out=mine)
-        mine *= stop[:, None]
+        mine *= stop[i]
         # i keeps the gap less k's stopping distance less k's half of the room left over:
         # min(g - their, (g - their + mine) / 2), never below 0
         share = np.subtract(gap, their, out=their)
@@ -327,14 +340,16 @@ class DiffDriveController:
         mine *= 0.5
         np.minimum(share, mine, out=share)
         np.maximum(share, 0.0, out=share)
-        tau = np.maximum(toward, 1e-9)  # behind or beside: tau tiny, the cap never binds
-        limit = self._cap(share, tau).min(axis=1)
-        ahead = np.where(toward > _COS_AHEAD, dist, np.inf)
-        k = ahead.argmin(axis=1)
-        near = ahead[self._rows(m), k]
-        if cols is not None:
-            k = cols[self._rows(m), k]
-        blocker = np.where(near < np.inf, k, -1)
+        limit = np.full(m, np.inf)
+        np.minimum.at(limit, i, self._cap(share, np.maximum(toward, 1e-9)))
+        # the robot in the way: the nearest ahead, the lowest index among equally near ones
+        ahead = (toward > _COS_AHEAD).nonzero()[0]
+        near = np.full(m, np.inf)
+        np.minimum.at(near, i[ahead], dist[ahead])
+        first = ahead[dist[ahead] == near[i[ahead]]]
+        blocker = np.full(m, m)
+        np.minimum.at(blocker, i[first], k[first])
+        blocker[blocker == m] = -1
         return np.maximum(np.minimum(v_mps, limit), -limit), blocker, near, apart
 
     def wall_cap(self, hc: np.ndarray, v_mps: np.ndarray, to_wall: np.ndarray) -> np.ndarray:
@@ -365,10 +380,22 @@ class DiffDriveController:
         veer &= ~same_way
         return w_radps - veer * (KEEP_RIGHT_GAIN * self.omega_max_radps)
 
-    def _rows(self, m: int) -> np.ndarray:
-        if len(self.rows_) != m:
-            self.rows_ = np.arange(m)
-        return self.rows_
+    def _candidates(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every pair of robots (i, k), both ways round, that could be closer than ``look_m``:
+        a Verlet list of the pairs within ``look_m + VERLET_SKIN_M`` (``cKDTree.query_pairs``),
+        rebuilt once a robot has moved more than half the skin since it was built (until then
+        two robots closer than ``look_m`` now were closer than ``look_m + VERLET_SKIN_M``)."""
+        z0 = self.verlet_z_
+        if len(z0) != len(z) or float(np.abs(z - z0).max()) >= 0.5 * VERLET_SKIN_M:
+            xy = np.column_stack([z.real, z.imag])
+            tree = cKDTree(xy, balanced_tree=False, compact_nodes=False)
+            pairs = tree.query_pairs(self.look_m + VERLET_SKIN_M, output_type="ndarray")
+            self.verlet_z_ = z.copy()
+            self.verlet_ = (
+                np.concatenate([pairs[:, 0], pairs[:, 1]]),
+                np.concatenate([pairs[:, 1], pairs[:, 0]]),
+            )
+        return self.verlet_
 
     def diag_inf(self, m: int) -> np.ndarray:
         """(m, m) zeros with inf on the diagonal (cached)."""

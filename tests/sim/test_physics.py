@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import sim.contacts
+import sim.drive
 import sim.physics
 from allocation.auction import MarketAllocator
 from allocation.costs import make_cost_model
@@ -385,9 +386,7 @@ def test_both_control_periods_agree_in_a_crowd_with_caps_and_keep_right(monkeypa
         log = []
         for _ in range(60):  # 6 s, one control period at a time
             world.advance(0.1)
-            near = world.near_.copy()  # only robots within look_m can bind: farther is inf
-            near[near >= world.controller.look_m] = np.inf
-            log.append((world.v_cmd_.copy(), world.q_cmd_.copy(), near))
+            log.append((world.v_cmd_.copy(), world.q_cmd_.copy(), world.near_.copy()))
         logs.append(log)
     for (v0, q0, n0), (v1, q1, n1) in zip(*logs, strict=True):
         np.testing.assert_allclose(v0, v1, rtol=0, atol=1e-9)
@@ -415,3 +414,33 @@ def test_obstacle_caps_in_python_equal_the_array_version():
     world._obstacle_caps(z, h.conj(), theirs, np.arange(300))
     np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12)
     assert (np.abs(theirs) < np.abs(v) - 0.1).sum() > 20  # many were capped
+
+
+def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatch):
+    """Above DENSE_MAX robots the pairs come from a Verlet list (KD-tree pairs within look_m
+    plus a skin, reused until a robot has moved half the skin): period after period it gives
+    the same caps, robots in the way and distances as the all-pairs array, bit for bit."""
+    rng = np.random.default_rng(11)
+    m = 160
+    z = rng.uniform(0.0, 22.0, m) + 1j * rng.uniform(0.0, 22.0, m)
+    th = rng.uniform(-np.pi, np.pi, m)
+    listed, dense = DiffDriveController(DriveSpec(), 0.1), DiffDriveController(DriveSpec(), 0.1)
+    lists, binding, blocked = [], 0, 0
+    for _ in range(40):
+        v = rng.uniform(-0.5, 1.5, m) * (rng.random(m) < 0.7)
+        v_prev = rng.uniform(-0.5, 1.5, m) * (rng.random(m) < 0.7)
+        hc = np.exp(-1j * th)
+        monkeypatch.setattr(sim.drive, "DENSE_MAX", 64)
+        ours = listed.proximity(z, hc, v, v_prev)
+        lists.append(listed.verlet_z_)  # replaced when the list is rebuilt
+        monkeypatch.setattr(sim.drive, "DENSE_MAX", 10**6)
+        theirs = dense.proximity(z, hc, v, v_prev)
+        for a, b in zip(ours[:3], theirs[:3], strict=True):
+            np.testing.assert_array_equal(a, b)
+        binding += int((np.abs(ours[0]) < np.abs(v)).sum())
+        blocked += int((ours[1] >= 0).sum())
+        z = z + rng.uniform(0.05, 0.2, m) * np.exp(1j * th)  # up to 0.2 m a period
+        th = th + rng.uniform(-0.3, 0.3, m)
+    rebuilt = sum(a is not b for a, b in zip(lists, lists[1:], strict=False))
+    assert 3 <= rebuilt < 30  # the list was rebuilt, and reused in between
+    assert binding > 100 and blocked > 100  # caps bound and robots were in the way

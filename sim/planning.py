@@ -18,6 +18,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import shortest_path
 
+from sim.buckets import BoxBuckets, typical_size
 from sim.scenario import SpatialSpec
 
 _TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
@@ -103,6 +104,10 @@ class GridPlanner:
             pairs = zip(normal.tolist(), offset.tolist(), strict=True)
             edges = [(nx, ny, c) for (nx, ny), c in pairs]
             self.scalar_.append((*self.bb_lo_[k].tolist(), *self.bb_hi_[k].tolist(), edges))
+        boxes = [
+            (*lo, *hi) for lo, hi in zip(self.bb_lo_.tolist(), self.bb_hi_.tolist(), strict=True)
+        ]
+        self.buckets_ = BoxBuckets(boxes, typical_size(boxes))
         verts = np.concatenate(polys) if polys else np.zeros((0, 2))
         self.vertices_ = verts[self.free(verts)]
         self._build_graph()
@@ -185,7 +190,9 @@ class GridPlanner:
         lox, hix = (ax, bx) if ax < bx else (bx, ax)
         loy, hiy = (ay, by) if ay < by else (by, ay)
         dx, dy = bx - ax, by - ay
-        for x0, y0, x1, y1, edges in self.scalar_:
+        scalar = self.scalar_
+        for k in self.buckets_.near(lox, loy, hix, hiy):
+            x0, y0, x1, y1, edges = scalar[k]
             if not (lox < x1 and loy < y1 and hix > x0 and hiy > y0):
                 continue
             t_lo, t_hi = 0.0, 1.0
@@ -210,7 +217,9 @@ class GridPlanner:
         x0, y0, x1, y1 = self.box_
         if not (x0 <= x <= x1 and y0 <= y <= y1):
             return False
-        for bx0, by0, bx1, by1, edges in self.scalar_:
+        scalar = self.scalar_
+        for k in self.buckets_.at(x, y):
+            bx0, by0, bx1, by1, edges = scalar[k]
             if bx0 <= x <= bx1 and by0 <= y <= by1:  # inside is strictly inside every edge
                 for nx, ny, c in edges:
                     if nx * x + ny * y - c >= -_TOL_M:

@@ -6,6 +6,8 @@ Behaviour tests run through both control paths: robot by robot in Python (small 
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -441,6 +443,6 @@ def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatc
         blocked += int((ours[1] >= 0).sum())
         z = z + rng.uniform(0.05, 0.2, m) * np.exp(1j * th)  # up to 0.2 m a period
         th = th + rng.uniform(-0.3, 0.3, m)
-    rebuilt = sum(a is not b for a, b in zip(lists, lists[1:], strict=False))
+    rebuilt = sum(a is not b for a, b in itertools.pairwise(lists))
     assert 3 <= rebuilt < 30  # the list was rebuilt, and reused in between
     assert binding > 100 and blocked > 100  # caps bound and robots were in the way

@@ -154,13 +154,20 @@ def test_occupancy_grid_marks_obstacles_and_walls():
     assert planner.reachable([2.0, 2.0]) and not planner.reachable([10.0, 10.0])
 
 
-@pytest.mark.parametrize("obstacles", [(BOX, TRIANGLE), ()])
+FIELD = tuple(  # 24 small boxes: single queries look at the buckets of a few (sim.buckets)
+    ((x, y), (x + 1.2, y), (x + 1.2, y + 0.9), (x, y + 0.9))
+    for x, y in itertools.product((1.5, 4.5, 7.5, 10.5, 13.5, 16.5), (2.0, 7.0, 12.0, 16.5))
+)
+
+
+@pytest.mark.parametrize("obstacles", [(BOX, TRIANGLE), (), FIELD])
 def test_single_queries_in_python_equal_the_array_versions(obstacles):
     """``blocked_one`` / ``free_one`` (path, side steps) decide as ``blocked`` / ``free`` do,
     segments grazing the inflated corners included, and the path's length is the distance."""
     planner = GridPlanner(spatial(obstacles))
     rng = np.random.default_rng(11)
     a, b = rng.uniform(-1, 21, size=(2, 4000, 2))
+    b[2000:] = a[2000:] + rng.uniform(-1.5, 1.5, size=(2000, 2))  # short ones, as side steps
     corners = np.concatenate(planner.polygons_) if obstacles else np.zeros((0, 2))
     b[: len(corners)] = corners  # ends exactly on inflated corners
     ours = [planner.blocked_one(*p, *q) for p, q in zip(a.tolist(), b.tolist(), strict=True)]

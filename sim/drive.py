@@ -300,7 +300,7 @@ class DiffDriveController:
                 return None, None, None, apart
             i, k = (dist < look).nonzero()
         else:  # a superset of the pairs closer than look_m (Verlet list), moving robot first
-            i, k = self._candidates(z)
+            i, k = self.neighbour_pairs(z)
             if not len(i):
                 return None, None, None, look  # all at least look_m apart
             moving = (v_mps[i] != 0.0).nonzero()[0]
@@ -380,7 +380,7 @@ class DiffDriveController:
         veer &= ~same_way
         return w_radps - veer * (KEEP_RIGHT_GAIN * self.omega_max_radps)
 
-    def _candidates(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def neighbour_pairs(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every pair of robots (i, k), both ways round, that could be closer than ``look_m``:
         a Verlet list of the pairs within ``look_m + VERLET_SKIN_M`` (``cKDTree.query_pairs``),
         rebuilt once a robot has moved more than half the skin since it was built (until then

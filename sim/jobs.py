@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sim.drive import DENSE_MAX
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.world import Completion
 
@@ -88,10 +89,22 @@ class JobsMixin:
             there &= gap <= sp.arrive_tol_m
             if queue.size:  # touching a robot that stands nearer the site: the site is taken,
                 # and working beside the robots already there counts as arrived
-                zs = z[((self.state_ != DRIVING) & ~self.yielding_).nonzero()[0]]  # standing
-                nearer = np.abs(zs[None, :] - self.site_[queue, None]) < gap[queue, None]
-                nearer &= np.abs(zs[None, :] - z[queue, None]) <= self.reach_m_  # touching
-                there[queue] = nearer.any(axis=1)
+                standing = (self.state_ != DRIVING) & ~self.yielding_
+                if len(z) <= DENSE_MAX:  # every queued robot against every standing one
+                    zs = z[standing.nonzero()[0]]
+                    nearer = np.abs(zs[None, :] - self.site_[queue, None]) < gap[queue, None]
+                    nearer &= np.abs(zs[None, :] - z[queue, None]) <= self.reach_m_  # touching
+                    there[queue] = nearer.any(axis=1)
+                else:  # ... against its neighbours only (look_m > reach_m_)
+                    i, k = self.controller.neighbour_pairs(z)
+                    queued = np.zeros(len(z), dtype=bool)
+                    queued[queue] = True
+                    sel = (queued[i] & standing[k]).nonzero()[0]
+                    i, k = i[sel], k[sel]
+                    nearer = np.abs(z[k] - self.site_[i]) < gap[i]
+                    nearer &= np.abs(z[k] - z[i]) <= self.reach_m_  # touching
+                    there[queue] = False
+                    there[i[nearer]] = True
             self._start_work(there.nonzero()[0].tolist(), v, w, t)
         nearest = float(np.where(go, gap, np.inf).min()) - zone
         self.site_check_s_ = t + max(nearest, 0.0) / (SPEED_BOUND * self.controller.v_max_mps)

@@ -13,6 +13,7 @@ import pytest
 
 import sim.contacts
 import sim.drive
+import sim.jobs
 import sim.physics
 from allocation.auction import MarketAllocator
 from allocation.costs import make_cost_model
@@ -446,3 +447,30 @@ def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatc
     rebuilt = sum(a is not b for a, b in itertools.pairwise(lists))
     assert 3 <= rebuilt < 30  # the list was rebuilt, and reused in between
     assert binding > 100 and blocked > 100  # caps bound and robots were in the way
+
+
+def test_robots_sent_to_one_site_work_beside_the_one_standing_on_it(control, monkeypatch):
+    """Three robots, one site: the first works on it, the others work touching a robot that
+    stands nearer the site (the site is taken). With the pairs from the all-pairs array and from
+    the neighbour list (as above 64 robots) the world commands the same wheels every period."""
+    site = (12.0, 5.0)
+    logs = []
+    for dense_max in (64, 0):
+        monkeypatch.setattr(sim.drive, "DENSE_MAX", dense_max)
+        monkeypatch.setattr(sim.jobs, "DENSE_MAX", dense_max)
+        world = PymunkWorld(scenario([(3.0, 5.0), (3.0, 7.5), (3.0, 2.5)], exec_s=60.0))
+        send(world, [0, 1, 2], [site] * 3)
+        log = []
+        for _ in range(250):
+            world.advance(0.1)
+            log.append(np.concatenate([world.v_cmd_, world.q_cmd_]))
+        logs.append(np.array(log))
+        assert (world.state_ == WORKING).all()
+        xy = world.poses()[0]
+        gap = np.linalg.norm(xy - site, axis=1)
+        first = int(gap.argmin())
+        assert gap[first] <= world.spatial.arrive_tol_m < np.sort(gap)[1]
+        for j in set(range(3)) - {first}:  # touching a robot nearer the site
+            touching = np.linalg.norm(xy - xy[j], axis=1) <= world.reach_m_
+            assert (touching & (gap < gap[j])).any()
+    np.testing.assert_array_equal(logs[0], logs[1])

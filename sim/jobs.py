@@ -141,6 +141,7 @@ class JobsMixin:
 
     def _make_way(self, pushers, blocker, z, h, v, t: float) -> None:
         """Idle robots standing in a driving robot's way step aside (planning ignores robots)."""
+        rows, paths = [], []
         for j in pushers.tolist():
             b = int(blocker[j])
             if self.yielding_[b]:  # asked by another robot in this period
@@ -150,11 +151,12 @@ class JobsMixin:
             # those within 1.5 YIELD_STEP_M of b could be that close (2 for rounding)
             close = np.abs(z - z[b]) < 2.0 * YIELD_STEP_M
             close[b] = False
-            others = z[close]
-            path = self.planner.side_step(z[b], z[j], travel, YIELD_STEP_M, others)
+            path = self.planner.side_step(z[b], z[j], travel, YIELD_STEP_M, z[close])
             if len(path):
-                self.follower.set_path(b, path)
+                rows.append(b)
+                paths.append(path)
                 self.yielding_[b], self.yield_until_s_[b] = True, t + YIELD_TIMEOUT_S
+        self.follower.set_paths(rows, paths)
         self._events()
 
     def _stop_yield(self, j: int, refresh: bool = True) -> None:

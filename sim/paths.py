@@ -24,6 +24,7 @@ import numpy as np
 WAYPOINT_SWITCH_M = 0.2  # aim at the next waypoint once this close to the current one
 LOOKAHEAD_M = 1.5  # a robot pushed off its path steers for the path this far ahead
 SCALAR_FREE_MAX = 48  # free widths of fewer (segment, obstacle edge) pairs in plain Python
+FREE_CHUNK = 96  # segments per array pass of set_paths (about as quick as any, bounded memory)
 
 
 class PathFollower:
@@ -79,8 +80,32 @@ class PathFollower:
         self.version_ = 0  # counts changes of the current-segment arrays (caches compare it)
         self.lists_version_, self.lists_ = -1, []
 
-    def set_path(self, j: int, path: np.ndarray) -> float:
-        """Give robot j a path (P, 2) whose first point is where it is now; its length (m)."""
+    def set_paths(self, rows: list[int], paths: list[np.ndarray]) -> list[float]:
+        """:meth:`set_path` for several robots (an auction round); their lengths (m).
+
+        The free widths of all their segments are computed together, ``FREE_CHUNK`` segments
+        per array pass (one pass per path costs its fixed overhead a thousand times a round)."""
+        edges = len(self.edge0_)
+        big = [k for k, p in enumerate(paths) if (len(p) - 1) * edges > SCALAR_FREE_MAX]
+        free = [None] * len(paths)
+        if big and self.n_owner_:
+            pts = [paths[k][:, 0] + 1j * paths[k][:, 1] for k in big]
+            a = np.concatenate([p[:-1] for p in pts])
+            b = np.concatenate([p[1:] for p in pts])
+            widths = np.concatenate(
+                [
+                    self._free(a[s : s + FREE_CHUNK], b[s : s + FREE_CHUNK])
+                    for s in range(0, len(a), FREE_CHUNK)
+                ]
+            )
+            ends = np.cumsum([len(p) - 1 for p in pts])
+            for k, part in zip(big, np.split(widths, ends[:-1]), strict=True):
+                free[k] = part
+        return [self.set_path(j, p, w) for j, p, w in zip(rows, paths, free, strict=True)]
+
+    def set_path(self, j: int, path: np.ndarray, free: np.ndarray | None = None) -> float:
+        """Give robot j a path (P, 2) whose first point is where it is now; its length (m).
+        ``free``: the free widths (P - 1, 2) of its segments if already known (:meth:`_free`)."""
         n = len(path)
         if n > self.points.shape[1]:
             grow = ((0, 0), (0, n - self.points.shape[1]))
@@ -105,7 +130,9 @@ class PathFollower:
         self.corner2[j, :n], self.corner2[j, n:] = corner2, 0.0
         self.free_m[j] = np.inf
         if n > 1:
-            self.free_m[j, 1:n] = self._free(np.array(pts[:-1]), np.array(pts[1:]))
+            if free is None:
+                free = self._free(np.array(pts[:-1]), np.array(pts[1:]))
+            self.free_m[j, 1:n] = free
         self.last[j] = n - 1
         self.index[j] = min(1, n - 1)
         self.load_one(j)

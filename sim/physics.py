@@ -195,6 +195,7 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
         t, sp = self.time_s, self.spatial
         v_max = self.follower.v_max_mps
         slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + BACKOFF_S) + 30.0
+        rows, paths = [], []
         for k in won.tolist():
             j = int(assignment[k])
             if self.task_[j] >= 0:
@@ -212,7 +213,9 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
             if not len(path):
                 self._finish(j, t, False, f"unreachable: no path from {_xy(xy[j])} to {_xy(site)}")
                 continue
-            length = self.follower.set_path(j, path)
+            rows.append(j)
+            paths.append(path)
+        for j, length in zip(rows, self.follower.set_paths(rows, paths), strict=True):
             self.state_[j] = DRIVING
             self.left_m_[j], self.progress_m_[j], self.t_progress_s_[j] = length, np.inf, t
             self.deadline_s_[j] = t + self.exec_time_s_[self.type_[j]] + 4 * length / v_max + slack

@@ -13,6 +13,13 @@ toward a robot that stands still, until it is back within the free width. A robo
 heading for T (turning in, veering round another robot) drives along its heading, not toward T,
 and the free width ends where it touches the obstacle: it is capped the same way as soon as the
 point where it could stop lies beyond the free width (``drifting``).
+
+Free widths are exact. With ``cap_m`` (large teams), the widths of a short one-segment path (a
+side step) are first computed only as far as ``cap_m`` from the obstacles near it (a robot is
+rarely that far off a 1 m step, and in open space the nearest obstacle may be 50 m away, which
+is what made the exact width cost a pass over every obstacle edge); a width that reaches
+``cap_m`` is flagged and computed exactly the moment a robot on that segment is, or could stop,
+farther off than ``cap_m``, so every decision is the one the exact width gives.
 """
 
 from __future__ import annotations
@@ -20,6 +27,8 @@ from __future__ import annotations
 from itertools import pairwise
 
 import numpy as np
+
+from sim.buckets import BoxBuckets, typical_size
 
 WAYPOINT_SWITCH_M = 0.2  # aim at the next waypoint once this close to the current one
 LOOKAHEAD_M = 1.5  # a robot pushed off its path steers for the path this far ahead
@@ -42,9 +51,12 @@ class PathFollower:
         radius_m: robot radius.
     """
 
-    def __init__(self, m: int, v_max_mps: float, obstacles=(), radius_m: float = 0.0) -> None:
+    def __init__(
+        self, m: int, v_max_mps: float, obstacles=(), radius_m: float = 0.0, cap_m: float = np.inf
+    ) -> None:
         self.v_max_mps = v_max_mps
         self.radius_m = radius_m
+        self.cap_m = cap_m
         polys = [np.asarray(p, dtype=float) @ np.array([1.0, 1j]) for p in obstacles]
         polys = [p for p in polys if len(p)]
         edges = [(p, np.roll(p, -1)) if len(p) > 2 else (p[:1], p[-1:]) for p in polys]
@@ -62,12 +74,15 @@ class PathFollower:
             (complex(p.real.min(), p.imag.min()), complex(p.real.max(), p.imag.max()))
             for p in polys
         ]
+        boxes = [(lo.real, lo.imag, hi.real, hi.imag) for lo, hi in self.boxes_]
+        self.buckets_ = BoxBuckets(boxes, typical_size(boxes))
         self.points = np.zeros((m, 2), dtype=complex)  # (m, P) waypoints, padded with the last
         self.last = np.full(m, -1)  # index of the final waypoint (-1: no path)
         self.index = np.zeros(m, dtype=int)  # waypoint currently aimed at
         self.after_m = np.zeros((m, 2))  # path length left after each waypoint
         self.corner2 = np.zeros((m, 2))  # squared speed allowed at each waypoint
         self.free_m = np.zeros((m, 2, 2))  # free width left, right of the segment into each
+        self.capped_m = np.zeros((m, 2, 2), dtype=bool)  # ... only known to be >= cap_m
         self.tgt_ = np.zeros(m, dtype=complex)  # the current waypoint of each robot
         self.unit_c_ = np.zeros(m, dtype=complex)  # conj. unit direction of the segment into it
         self.seg_m_ = np.zeros(m)  # that segment's length
@@ -77,6 +92,7 @@ class PathFollower:
         self.beyond_ = np.full(m, -np.inf)  # ... or this far beyond the normal line (0 / -inf)
         self.free_ = np.zeros((2, m))  # minus the free width left, the free width right
         self.free_[0], self.free_[1] = -np.inf, np.inf  # no path: never off it
+        self.capped_ = np.zeros((2, m), dtype=bool)  # left, right width of it only >= cap_m
         self.version_ = 0  # counts changes of the current-segment arrays (caches compare it)
         self.lists_version_, self.lists_ = -1, []
 
@@ -87,6 +103,8 @@ class PathFollower:
         per array pass (one pass per path costs its fixed overhead a thousand times a round)."""
         edges = len(self.edge0_)
         big = [k for k, p in enumerate(paths) if (len(p) - 1) * edges > SCALAR_FREE_MAX]
+        if self.cap_m < np.inf:  # single short segments (side steps): set_path, capped
+            big = [k for k in big if len(paths[k]) != 2 or not self._short(paths[k])]
         free = [None] * len(paths)
         if big and self.n_owner_:
             pts = [paths[k][:, 0] + 1j * paths[k][:, 1] for k in big]
@@ -113,6 +131,7 @@ class PathFollower:
             self.after_m = np.pad(self.after_m, grow)
             self.corner2 = np.pad(self.corner2, grow)
             self.free_m = np.pad(self.free_m, (*grow, (0, 0)))
+            self.capped_m = np.pad(self.capped_m, (*grow, (0, 0)))
         pts = (path[:, 0] + 1j * path[:, 1]).tolist()  # a few points: plain Python is quicker
         seg = [b - a for a, b in pairwise(pts)]
         length = [abs(s) for s in seg]
@@ -129,10 +148,17 @@ class PathFollower:
         self.after_m[j, :n], self.after_m[j, n:] = after, 0.0
         self.corner2[j, :n], self.corner2[j, n:] = corner2, 0.0
         self.free_m[j] = np.inf
+        self.capped_m[j] = False
         if n > 1:
-            if free is None:
-                free = self._free(np.array(pts[:-1]), np.array(pts[1:]))
-            self.free_m[j, 1:n] = free
+            short = None
+            if free is None and n == 2 and self.cap_m < np.inf:
+                short = self._free_capped(pts[0], pts[1])
+            if short is not None:
+                self.free_m[j, 1], self.capped_m[j, 1] = short
+            else:
+                if free is None:
+                    free = self._free(np.array(pts[:-1]), np.array(pts[1:]))
+                self.free_m[j, 1:n] = free
         self.last[j] = n - 1
         self.index[j] = min(1, n - 1)
         self.load_one(j)
@@ -152,6 +178,7 @@ class PathFollower:
         self.switch_[j] = WAYPOINT_SWITCH_M if more else -1.0
         self.beyond_[j] = 0.0 if more else -np.inf
         self.free_[0, j], self.free_[1, j] = -self.free_m[j, idx, 0], self.free_m[j, idx, 1]
+        self.capped_[:, j] = self.capped_m[j, idx]
 
     def segment_lists(self) -> list[list]:
         """The current-segment arrays as Python lists (the scalar control period of a small
@@ -200,6 +227,7 @@ class PathFollower:
         self.index[j] = 0
         self.switch_[j], self.beyond_[j] = -1.0, -np.inf
         self.free_[0, j], self.free_[1, j] = -np.inf, np.inf
+        self.capped_[:, j] = False
 
     def _load(self, rows: np.ndarray) -> None:
         """Refresh the current-segment arrays of ``rows`` from their waypoint index."""
@@ -216,6 +244,7 @@ class PathFollower:
         self.beyond_[rows] = np.where(more, 0.0, -np.inf)
         left, right = self.free_m[rows, idx, 0], self.free_m[rows, idx, 1]
         self.free_[0, rows], self.free_[1, rows] = -left, right
+        self.capped_[:, rows] = self.capped_m[rows, idx].T
 
     def targets(self, z: np.ndarray):
         """Advance past reached waypoints and pick where each robot steers.
@@ -243,6 +272,10 @@ class PathFollower:
         side = proj.imag  # minus the robot's offset to the left of the segment
         off = side < self.free_[0]
         off |= side > self.free_[1]
+        if self.cap_m < np.inf and np.count_nonzero(off):
+            rows = off.nonzero()[0]
+            if self._refine(rows, side[rows], side[rows]):
+                off[rows] = (side[rows] < self.free_[0, rows]) | (side[rows] > self.free_[1, rows])
         aim, rows = delta, None
         if np.count_nonzero(off):  # straight for the waypoint could touch an obstacle
             rows = off.nonzero()[0]
@@ -265,9 +298,32 @@ class PathFollower:
         stop = (h * self.unit_c_).imag  # leftward share of the heading
         stop *= v_mps * (react_s + np.abs(v_mps) * inv2a)
         np.subtract(side, stop, out=stop)  # the same at the stopping point
-        out = np.minimum(side, stop) < self.free_[0]
-        out |= np.maximum(side, stop, out=stop) > self.free_[1]
+        lo, hi = np.minimum(side, stop), np.maximum(side, stop)
+        out = lo < self.free_[0]
+        out |= hi > self.free_[1]
+        if self.cap_m < np.inf and np.count_nonzero(out):
+            rows = out.nonzero()[0]
+            if self._refine(rows, lo[rows], hi[rows]):
+                out[rows] = (lo[rows] < self.free_[0, rows]) | (hi[rows] > self.free_[1, rows])
         return out.nonzero()[0] if np.count_nonzero(out) else None
+
+    def _refine(self, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+        """Robots ``rows`` at offsets (minus left) between ``lo`` and ``hi`` of their segment are
+        beyond its stored free width; where that width is only known to be >= ``cap_m``, compute
+        it exactly (:meth:`_free`) and store it. True if any was."""
+        need = self.capped_[0, rows] & (lo < self.free_[0, rows])
+        need |= self.capped_[1, rows] & (hi > self.free_[1, rows])
+        if not np.count_nonzero(need):
+            return False
+        for j in rows[need].tolist():
+            idx = int(self.index[j])
+            a, b = self.points[j, idx - 1 : idx], self.points[j, idx : idx + 1]
+            width = self._free(a, b)[0]
+            self.free_m[j, idx], self.capped_m[j, idx] = width, False
+            self.free_[0, j], self.free_[1, j] = -width[0], width[1]
+            self.capped_[:, j] = False
+        self.version_ += 1
+        return True
 
     def to_obstacle(self, z: np.ndarray) -> np.ndarray:
         """From each point z (k,) to the nearest point of any obstacle or wall (x + iy)."""
@@ -326,12 +382,54 @@ class PathFollower:
         out[:, 1] = np.where(right, dist, np.inf).min(axis=1)
         return np.maximum(out, 0.0)
 
+    def _short(self, path: np.ndarray) -> bool:
+        """True if the one segment of ``path`` (2, 2) is short enough for :meth:`_free_capped`."""
+        (ax, ay), (bx, by) = path.tolist()
+        return self._near_cap(complex(ax, ay), complex(bx, by)) is not self.buckets_.all_
+
+    def _near_cap(self, a: complex, b: complex) -> list[int]:
+        """Obstacles (indices) whose bounding box is within ``cap_m`` + radius of the
+        segment's (a superset, :class:`sim.buckets.BoxBuckets`)."""
+        d = self.cap_m + self.radius_m
+        x0, x1 = (a.real, b.real) if a.real < b.real else (b.real, a.real)
+        y0, y1 = (a.imag, b.imag) if a.imag < b.imag else (b.imag, a.imag)
+        return self.buckets_.near(x0 - d, y0 - d, x1 + d, y1 + d)
+
+    def _free_capped(self, a: complex, b: complex):
+        """Free widths of segment a -> b as far as ``cap_m``, or None if it is too long.
+
+        Only obstacles near the segment are looked at: one farther than ``cap_m`` + radius
+        from the segment's bounding box cannot leave a width below ``cap_m``. A side without
+        a nearer obstacle gets ``cap_m``, flagged: its true width is at least that, and it is
+        computed exactly (:meth:`_refine`) if a robot is ever farther off the path.
+
+        Returns:
+            ((left, right) widths, (left, right) flags) or None.
+        """
+        near = self._near_cap(a, b)
+        if near is self.buckets_.all_:
+            return None
+        left, right = self._sides(a, b, near)
+        out, flags = [], []
+        for dist in (left, right):
+            width = dist - self.radius_m
+            flags.append(width > self.cap_m)
+            out.append(self.cap_m if width > self.cap_m else max(width, 0.0))
+        return out, flags
+
     def _free_one(self, a: complex, b: complex) -> tuple[float, float]:
         """:meth:`_free` of one segment, in plain Python."""
+        left, right = self._sides(a, b, range(self.n_owner_))
+        return max(left - self.radius_m, 0.0), max(right - self.radius_m, 0.0)
+
+    def _sides(self, a: complex, b: complex, owners) -> tuple[float, float]:
+        """Distance from segment a -> b to the nearest of ``owners`` (indices) on its left and
+        on its right (an obstacle straddling the segment's line counts on both)."""
         length = abs(b - a)
         unit_c = (b - a).conjugate() / length if length > 1e-12 else 1.0
         left = right = np.inf
-        for verts, edges in self.owners_:
+        for k in owners:
+            verts, edges = self.owners_[k]
             dist = min(_to_segment(p, a, b) for p in verts)
             for e0, e1 in edges:
                 dist = min(dist, _to_segment(a, e0, e1), _to_segment(b, e0, e1))
@@ -340,7 +438,7 @@ class PathFollower:
                 left = min(left, dist)
             if min(side) < 1e-9:
                 right = min(right, dist)
-        return max(left - self.radius_m, 0.0), max(right - self.radius_m, 0.0)
+        return left, right
 
 
 def _to_segment(p: complex, s0: complex, s1: complex) -> float:

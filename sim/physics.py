@@ -60,6 +60,7 @@ from sim.world import Completion, WorldState
 
 ROBOT, WALL = 1, 2  # pymunk collision types
 WALL_THICKNESS_M = 1.0
+FREE_CAP_M = 2.0  # free widths of side steps as far as this (the step is 1 m), then on demand
 
 
 class PymunkWorld(SmallTeamMixin, JobsMixin):
@@ -142,7 +143,10 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
         walls = [((0, 0), (sp.width_m, 0)), ((sp.width_m, 0), (sp.width_m, sp.height_m))]
         walls += [((sp.width_m, sp.height_m), (0, sp.height_m)), ((0, sp.height_m), (0, 0))]
         v_max = drive.max_wheel_speed_radps * drive.wheel_radius_m
-        self.follower = PathFollower(m, v_max, [*sp.obstacles, *walls], drive.radius_m)
+        # beyond a small team (scalar control), free widths of side steps are computed only
+        # as far as FREE_CAP_M, and exactly when a robot gets farther off (PathFollower.cap_m)
+        cap = np.inf if self.small_ else FREE_CAP_M
+        self.follower = PathFollower(m, v_max, [*sp.obstacles, *walls], drive.radius_m, cap)
         self.done_: list[Completion] = []
         self.failures_ = 0
         self.moved_m_ = np.zeros(m)  # driven since reset

@@ -474,3 +474,45 @@ def test_robots_sent_to_one_site_work_beside_the_one_standing_on_it(control, mon
             touching = np.linalg.norm(xy - xy[j], axis=1) <= world.reach_m_
             assert (touching & (gap < gap[j])).any()
     np.testing.assert_array_equal(logs[0], logs[1])
+
+
+def test_free_widths_capped_and_refined_on_demand_steer_as_the_exact_ones():
+    """Side-step widths computed only as far as cap_m (large teams) and exactly once a robot
+    is farther off: targets and drifting decide as with the exact widths, wherever the robot."""
+    boxes = [
+        ((x, y), (x + 1.0, y), (x + 1.0, y + 1.0), (x, y + 1.0))
+        for x, y in [(3.0, 2.0), (8.0, 6.0), (14.0, 3.0), (16.0, 7.5)]
+    ]
+    walls = [((0, 0), (20, 0)), ((20, 0), (20, 10)), ((20, 10), (0, 10)), ((0, 10), (0, 0))]
+    m = 400
+    exact = PathFollower(m, 1.5, [*boxes, *walls], R)
+    capped = PathFollower(m, 1.5, [*boxes, *walls], R, cap_m=1.0)
+    rng = np.random.default_rng(4)
+    a = rng.uniform((1.0, 1.0), (19.0, 9.0), size=(m, 2))
+    b = a + rng.uniform(-1.0, 1.0, size=(m, 2))  # side steps: about 1 m
+    for j in range(m):
+        for f in (exact, capped):
+            f.set_path(j, np.array([a[j], b[j]]))
+    flagged = capped.capped_m[:, 1].copy()
+    assert flagged.sum() > 100  # many widths only known to be >= 1 m ...
+    np.testing.assert_array_equal(
+        capped.free_m[:, 1][~flagged], exact.free_m[:, 1][~flagged]
+    )  # others exact
+    assert (capped.free_m[:, 1][flagged] == 1.0).all() and (exact.free_m[:, 1][flagged] > 1.0).all()
+    lateral = 1j * (b - a) @ np.array([1.0, 1j])
+    lateral /= np.abs(lateral)
+    z = (a + 0.5 * (b - a)) @ np.array([1.0, 1j]) + rng.uniform(-6.0, 6.0, m) * lateral
+    h = np.exp(1j * rng.uniform(-np.pi, np.pi, m))
+    v = rng.uniform(-1.5, 1.5, m)
+    ours, theirs = capped.targets(z), exact.targets(z)  # refines the capped widths it must
+    for x, y in zip(ours, theirs, strict=True):
+        np.testing.assert_array_equal(x, y)
+    before = capped.capped_m[:, 1].sum()
+    np.testing.assert_array_equal(
+        capped.drifting(z, h, v, 0.1, 0.5), exact.drifting(z, h, v, 0.1, 0.5)
+    )
+    assert capped.capped_m[:, 1].sum() < before  # drifting made some more exact
+    refined = flagged & ~capped.capped_m[:, 1]
+    assert refined.sum() > 20  # robots far off the path made their widths exact
+    np.testing.assert_array_equal(capped.free_m[:, 1][refined], exact.free_m[:, 1][refined])
+    assert capped.capped_m[:, 1].sum() > 50  # ... and only theirs

@@ -14,6 +14,7 @@ from sim.recording import DRIVING, IDLE, WORKING
 from sim.world import Completion
 
 BACKOFF_S = 1.5  # a stuck robot reverses on a random arc this long, then replans
+RECOVERED_M = 5.0  # this much closer to its site than where it got stuck, its tries start again
 YIELD_TRIGGER_M = 0.3  # a driving robot this close (beyond contact) to an idle one asks it to move
 YIELD_STEP_M = 1.0  # how far an idle robot steps aside
 YIELD_TIMEOUT_S = 6.0
@@ -56,6 +57,10 @@ class JobsMixin:
             if np.count_nonzero(better):
                 np.putmask(self.progress_m_, better, left - PROGRESS_M)
                 np.putmask(self.t_progress_s_, better, t)
+                if self.recovering_:  # got past where it last got stuck: tries start again
+                    past = better & (left < self.stuck_left_m_ - RECOVERED_M)
+                    if np.count_nonzero(past):
+                        self._recovered(past.nonzero()[0].tolist())
             if t > self.stuck_check_s_:
                 self._stuck(go, t)
             if t >= self.site_check_s_:
@@ -192,6 +197,8 @@ class JobsMixin:
             self.t_progress_s_[j] = self.work_end_s_[b]
             return
         self.recoveries_[j] += 1
+        self.stuck_left_m_[j] = self.left_m_[j]  # where it got stuck (path left to drive)
+        self.recovering_ = True
         if self.recoveries_[j] > sp.max_recoveries:
             why = f"stuck: no progress for {sp.stuck_timeout_s:g} s after {sp.max_recoveries} tries"
             return self._finish(j, t, False, why)
@@ -212,6 +219,14 @@ class JobsMixin:
         self.replan_[j] = True
         self.follower.clear(j)
         self._events()
+
+    def _recovered(self, rows: list[int]) -> None:
+        """Robots ``rows`` came ``RECOVERED_M`` closer to their site than where they last got
+        stuck: that obstruction is behind them, and their tries start again."""
+        for j in rows:
+            self.recoveries_[j] = 0
+            self.stuck_left_m_[j] = np.inf
+        self.recovering_ = bool(np.isfinite(self.stuck_left_m_).any())
 
     def _replan(self, j: int, xy: np.ndarray, t: float) -> None:
         self.replan_[j] = False
@@ -235,6 +250,7 @@ class JobsMixin:
         self.failures_ += not ok
         self.task_[j] = -1
         self.state_[j] = IDLE
+        self.stuck_left_m_[j] = np.inf
         self.replan_[j] = False
         self.backoff_until_s_[j] = -np.inf
         self.t_progress_s_[j] = np.inf

@@ -128,7 +128,9 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
         self.n_backoff_ = self.n_yield_ = self.n_steer_ = 0
         self.resting_ = self.calm_ = True  # nothing steered and every wheel stopped (twice)
         self.state_list_, self.steer_list_ = self.state_.tolist(), []  # kept by _events
-        self.recoveries_ = np.zeros(m, dtype=int)
+        self.recoveries_ = np.zeros(m, dtype=int)  # tries since the robot last got going
+        self.stuck_left_m_ = np.full(m, np.inf)  # path left when it last got stuck (inf: never)
+        self.recovering_ = False  # any robot with a finite stuck_left_m_
         self.backoff_until_s_ = np.full(m, -np.inf)
         self.backoff_cmd_ = np.zeros((m, 2))
         self.replan_ = np.zeros(m, dtype=bool)
@@ -210,6 +212,7 @@ class PymunkWorld(SmallTeamMixin, JobsMixin):
             self.task_[j], self.type_[j] = int(batch.ids[k]), int(batch.types[k])
             self.t_alloc_s_[j], self.bid_[j], self.site_[j] = t, float(bids[k]), complex(*site)
             self.odo0_m_[j], self.recoveries_[j], self.replan_[j] = self.moved_m_[j], 0, False
+            self.stuck_left_m_[j] = np.inf
             self.backoff_until_s_[j] = -np.inf
             self.yielding_[j] = False
             self.follower.clear(j)

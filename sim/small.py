@@ -19,7 +19,7 @@ from math import atan2, cos, sqrt
 import numpy as np
 
 from sim.drive import AHEAD_DEG, ARC_MAX_RADIUS_M, CREEP_MPS, HEADING_GAIN, KEEP_RIGHT_GAIN
-from sim.jobs import PROGRESS_M, SPEED_BOUND, YIELD_TRIGGER_M
+from sim.jobs import PROGRESS_M, RECOVERED_M, SPEED_BOUND, YIELD_TRIGGER_M
 from sim.paths import LOOKAHEAD_M
 from sim.recording import DRIVING, IDLE
 
@@ -98,6 +98,8 @@ class SmallTeamMixin:
                 elif go[j] and left < progress[j]:
                     self.progress_m_[j] = left - PROGRESS_M
                     self.t_progress_s_[j] = t
+                    if self.recovering_ and left < self.stuck_left_m_[j] - RECOVERED_M:
+                        self._recovered([j])  # got past where it last got stuck
                 v[j], w[j] = vj, wj
             for j in stops:
                 self._stop_yield(j, refresh=False)

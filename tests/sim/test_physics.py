@@ -516,3 +516,24 @@ def test_free_widths_capped_and_refined_on_demand_steer_as_the_exact_ones():
     assert refined.sum() > 20  # robots far off the path made their widths exact
     np.testing.assert_array_equal(capped.free_m[:, 1][refined], exact.free_m[:, 1][refined])
     assert capped.capped_m[:, 1].sum() > 50  # ... and only theirs
+
+
+@pytest.mark.parametrize("driven_s", [1.0, 6.0])
+def test_tries_start_again_once_a_robot_got_past_where_it_was_stuck(control, driven_s):
+    """A robot that has used its last try and then comes RECOVERED_M (5 m) closer to its site
+    than where it got stuck has its tries back: stuck again, it recovers instead of failing.
+    One that has not got that far fails with the 'stuck' reason, as before."""
+    world = PymunkWorld(scenario([(2.0, 5.0)], sites=[(18.0, 5.0)], max_recoveries=2))
+    send(world, [0], [(18.0, 5.0)])
+    world.advance(0.2)
+    world.recoveries_[0] = 2  # as if it had got stuck twice, here
+    world.stuck_left_m_[0], world.recovering_ = world.left_m_[0], True
+    world.advance(driven_s)  # 1 s: about 1 m on; 6 s: more than 5 m
+    got_past = world.stuck_left_m_[0] - world.left_m_[0] > 5.0
+    assert got_past == (driven_s > 5.0)
+    world._recover(0, world.time_s)  # stuck again
+    failed = [c for c in world.done_ if not c.ok]
+    if got_past:
+        assert not failed and world.recoveries_[0] == 1 and world.state_[0] == DRIVING
+    else:
+        assert [c.reason.split(":")[0] for c in failed] == ["stuck"]

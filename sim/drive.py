@@ -274,7 +274,7 @@ class DiffDriveController:
         The rule is applied to every pair closer than ``look_m`` = contact + 2 x the stopping
         distance from top speed: farther apart, both can stop from top speed within their half of
         the gap, so no cap is needed. Up to ``DENSE_MAX`` robots the pairs come from one (m, m)
-        distance array, beyond from a KD-tree (``cKDTree.query_pairs``); then the formulas run
+        distance array, beyond from a Verlet list (:meth:`neighbour_pairs`); then the formulas run
         over the pairs (i, k) in which i moves toward k, so a crowd costs what its close pairs
         cost, not m x m.
 

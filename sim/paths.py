@@ -103,9 +103,14 @@ class PathFollower:
         per array pass (one pass per path costs its fixed overhead a thousand times a round)."""
         edges = len(self.edge0_)
         big = [k for k, p in enumerate(paths) if (len(p) - 1) * edges > SCALAR_FREE_MAX]
-        if self.cap_m < np.inf:  # single short segments (side steps): set_path, capped
-            big = [k for k in big if len(paths[k]) != 2 or not self._short(paths[k])]
-        free = [None] * len(paths)
+        free, capped = [None] * len(paths), [None] * len(paths)
+        if self.cap_m < np.inf:  # single short segments (side steps): capped, one by one
+            for k in [k for k in big if len(paths[k]) == 2]:
+                (ax, ay), (bx, by) = paths[k].tolist()
+                short = self._free_capped(complex(ax, ay), complex(bx, by))
+                if short is not None:
+                    free[k], capped[k] = short
+            big = [k for k in big if free[k] is None]
         if big and self.n_owner_:
             pts = [paths[k][:, 0] + 1j * paths[k][:, 1] for k in big]
             a = np.concatenate([p[:-1] for p in pts])
@@ -119,11 +124,14 @@ class PathFollower:
             ends = np.cumsum([len(p) - 1 for p in pts])
             for k, part in zip(big, np.split(widths, ends[:-1]), strict=True):
                 free[k] = part
-        return [self.set_path(j, p, w) for j, p, w in zip(rows, paths, free, strict=True)]
+        return [
+            self.set_path(j, p, w, c) for j, p, w, c in zip(rows, paths, free, capped, strict=True)
+        ]
 
-    def set_path(self, j: int, path: np.ndarray, free: np.ndarray | None = None) -> float:
+    def set_path(self, j: int, path: np.ndarray, free=None, capped=None) -> float:
         """Give robot j a path (P, 2) whose first point is where it is now; its length (m).
-        ``free``: the free widths (P - 1, 2) of its segments if already known (:meth:`_free`)."""
+        ``free``: the free widths (P - 1, 2) of its segments if already known (:meth:`_free`),
+        ``capped``: which of them are only known to be >= ``cap_m`` (:meth:`_free_capped`)."""
         n = len(path)
         if n > self.points.shape[1]:
             grow = ((0, 0), (0, n - self.points.shape[1]))
@@ -150,15 +158,13 @@ class PathFollower:
         self.free_m[j] = np.inf
         self.capped_m[j] = False
         if n > 1:
-            short = None
             if free is None and n == 2 and self.cap_m < np.inf:
-                short = self._free_capped(pts[0], pts[1])
-            if short is not None:
-                self.free_m[j, 1], self.capped_m[j, 1] = short
-            else:
-                if free is None:
-                    free = self._free(np.array(pts[:-1]), np.array(pts[1:]))
-                self.free_m[j, 1:n] = free
+                free, capped = self._free_capped(pts[0], pts[1]) or (None, None)
+            if free is None:
+                free = self._free(np.array(pts[:-1]), np.array(pts[1:]))
+            self.free_m[j, 1:n] = free
+            if capped is not None:
+                self.capped_m[j, 1:n] = capped
         self.last[j] = n - 1
         self.index[j] = min(1, n - 1)
         self.load_one(j)
@@ -381,11 +387,6 @@ class PathFollower:
         out[:, 0] = np.where(left, dist, np.inf).min(axis=1)
         out[:, 1] = np.where(right, dist, np.inf).min(axis=1)
         return np.maximum(out, 0.0)
-
-    def _short(self, path: np.ndarray) -> bool:
-        """True if the one segment of ``path`` (2, 2) is short enough for :meth:`_free_capped`."""
-        (ax, ay), (bx, by) = path.tolist()
-        return self._near_cap(complex(ax, ay), complex(bx, by)) is not self.buckets_.all_
 
     def _near_cap(self, a: complex, b: complex) -> list[int]:
         """Obstacles (indices) whose bounding box is within ``cap_m`` + radius of the

@@ -1,0 +1,110 @@
+"""Fixed-seed golden runs: the metrics and trajectories a behaviour-preserving change keeps.
+
+``python tests/golden/cases.py`` rewrites ``golden.json``; do that only for a change that is
+meant to alter results, and say so in its commit message. The test (``tests/test_golden.py``)
+recomputes every case and compares it with the file bit for bit.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+GOLDEN = HERE / "golden.json"
+
+SHORT_ABSTRACT = (
+    ("stream.n_sets", 10),
+    ("stream.learn_sets", 7),
+    ("stream.test_sets", 5),
+    ("experience.n_min", 8),
+    ("experience.delta_u", 0.3),
+)
+SHORT_SPATIAL = (
+    ("stream.n_sets", 3),
+    ("stream.rounds_per_set", 8),
+    ("stream.learn_sets", 2),
+    ("stream.test_sets", 2),
+    ("experience.n_min", 4),
+    ("experience.delta_u", 0.3),
+)
+SHORT_LARGE = (
+    ("stream.n_sets", 1),
+    ("stream.rounds_per_set", 6),
+    ("stream.learn_sets", 1),
+    ("stream.test_sets", 1),
+)
+
+# (case name, scenario, allocator, cost, seed, overrides, control path: None = by team size)
+CASES = (
+    ("abstract_market", "paper", "market", "abstract", 3, SHORT_ABSTRACT, None),
+    ("abstract_ql", "paper", "ql", "abstract", 3, SHORT_ABSTRACT, None),
+    ("abstract_expt", "paper", "expt", "abstract", 3, SHORT_ABSTRACT, None),
+    (
+        "spatial_expt_distance_scalar",
+        "paper_spatial",
+        "expt",
+        "distance",
+        1,
+        SHORT_SPATIAL,
+        "scalar",
+    ),
+    ("spatial_market_time_array", "paper_spatial", "market", "time", 2, SHORT_SPATIAL, "array"),
+    ("spatial_large_ql_distance", "large", "ql", "distance", 0, SHORT_LARGE, None),
+)
+
+
+def digest(array: np.ndarray) -> str:
+    """SHA-256 of an array's dtype, shape and bytes."""
+    a = np.ascontiguousarray(array)
+    h = hashlib.sha256(f"{a.dtype.str}{a.shape}".encode())
+    h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def run_case(scenario, allocator, cost, seed, overrides, control) -> dict:
+    """One golden run: its summary (JSON text) and, in the pymunk world, trajectory digests."""
+    from scenarios.protocol import RunSpec, execute
+    from sim.recording import TrajectoryRecorder
+
+    from tests.golden.control import forced_control
+
+    spec = RunSpec(scenario, allocator, cost=cost, seed=seed, overrides=overrides)
+    out: dict = {}
+    if scenario == "paper":
+        summary = execute(spec)
+    else:
+        from scenarios.protocol import build_run
+
+        recorder = TrajectoryRecorder.for_scenario(build_run(spec)[0])
+        with forced_control(control):
+            summary = execute(spec, recorder=recorder, task_table=True)
+        traj = recorder.finish()
+        out["trajectory"] = {
+            k: digest(getattr(traj, k))
+            for k in (
+                "times_s",
+                "positions",
+                "headings",
+                "robot_state",
+                "t_alloc",
+                "t_done",
+                "task_robot",
+            )
+        }
+    out["summary"] = json.loads(json.dumps(summary, sort_keys=True, allow_nan=True))
+    return out
+
+
+def compute() -> dict:
+    return {name: run_case(*args) for name, *args in CASES}
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(HERE.parents[1]))
+    GOLDEN.write_text(json.dumps(compute(), indent=1, sort_keys=True, allow_nan=True) + "\n")
+    print(f"wrote {GOLDEN}")

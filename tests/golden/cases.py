@@ -70,7 +70,6 @@ def run_case(scenario, allocator, cost, seed, overrides, control) -> dict:
     """One golden run: its summary (JSON text) and, in the pymunk world, trajectory digests."""
     from scenarios.protocol import RunSpec, execute
     from sim.recording import TrajectoryRecorder
-
     from tests.golden.control import forced_control
 
     spec = RunSpec(scenario, allocator, cost=cost, seed=seed, overrides=overrides)

@@ -9,7 +9,10 @@ import sim.physics
 
 @contextlib.contextmanager
 def forced_control(path: str | None):
-    """Run the block with every new pymunk world on the ``scalar`` or ``array`` control path (None: chosen by team size)."""
+    """Run the block with new pymunk worlds on the ``scalar`` or ``array`` control path.
+
+    ``None`` leaves the choice to the team size.
+    """
     old = sim.physics.SMALL_TEAM
     if path is not None:
         sim.physics.SMALL_TEAM = 10**6 if path == "scalar" else 0

@@ -105,6 +105,10 @@ class MarketAllocator:
         """(m, n) robots that will bid for each type: every capable one."""
         return self.capable
 
+    def allowed(self) -> np.ndarray:
+        """(m, n) robots that may be given each type: every capable one."""
+        return self.capable
+
     def learning_space(self) -> np.ndarray:
         """A market robot learns nothing: zero per robot."""
         return np.zeros(self.scenario.n_robots, dtype=np.int64)

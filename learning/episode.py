@@ -23,6 +23,38 @@ class InvariantError(RuntimeError):
     """A run broke one of the invariants every run must keep."""
 
 
+LOSS_CAUSES = ("no_capable_free", "capable_taken", "refused", "waited")
+"""Why a task was lost, checked in this order when it was announced:
+
+- ``no_capable_free``: no robot that can do the type was free;
+- ``capable_taken``: every free capable robot was given another task of the same round;
+- ``refused``: every free capable robot left over had refused the type;
+- ``waited``: a free, willing, capable robot was left over but did not bid (QL-MRTA's wait).
+"""
+
+
+def loss_causes(
+    lost_types: np.ndarray, free: np.ndarray, taken: np.ndarray, capable: np.ndarray,
+    willing: np.ndarray,
+) -> np.ndarray:
+    """Counts of :data:`LOSS_CAUSES` over lost tasks of the given types (one round).
+
+    Args:
+        lost_types: (l,) type of every task of the round that nobody took.
+        free: (m,) robots free when the round was announced.
+        taken: (m,) robots given a task in this round.
+        capable: (m, n) what each robot can do; ``willing``: what it had not refused.
+    """
+    can = capable[:, lost_types] & free[:, None]
+    left = can & ~taken[:, None]
+    will = left & willing[:, lost_types]
+    none_free = ~can.any(axis=0)
+    all_taken = ~none_free & ~left.any(axis=0)
+    refused = ~none_free & ~all_taken & ~will.any(axis=0)
+    waited = will.any(axis=0)
+    return np.array([none_free.sum(), all_taken.sum(), refused.sum(), waited.sum()], np.int64)
+
+
 @dataclass
 class PhaseRecord:
     """What happened to the tasks of one phase (learning or test)."""
@@ -34,6 +66,9 @@ class PhaseRecord:
     announced: int = 0  # counted, not kept, when run_protocol(keep=False)
     allocated: int = 0
     failed: int = 0
+    lost_causes: np.ndarray = field(
+        default_factory=lambda: np.zeros(len(LOSS_CAUSES), dtype=np.int64)
+    )  # tasks lost, per LOSS_CAUSES
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.task_ids:
@@ -119,11 +154,18 @@ def run_protocol(
             ids, assigned, bids, done = [], [], [], []
             for batch in stream.batches(s):
                 state = world.snapshot()
+                allowed = allocator.allowed().copy()
                 willing = allocator.willing().copy()
                 costs = cost_model.costs(state, batch)
                 assignment, bid_matrix = allocator.allocate(state, batch, costs)
-                _check_assignment(assignment, bid_matrix, batch, state.free, willing, capable)
+                _check_assignment(assignment, bid_matrix, batch, state.free, allowed, capable)
                 won = assignment >= 0
+                if not won.all():
+                    taken = np.zeros(state.free.size, dtype=bool)
+                    taken[assignment[won]] = True
+                    phase.lost_causes += loss_causes(
+                        batch.types[~won], state.free, taken, capable, willing
+                    )
                 won_bid = np.full(len(batch), np.nan)
                 won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
                 world.apply(batch, assignment, won_bid)
@@ -178,7 +220,7 @@ def _trace(record: RunRecord, allocator, rounds: int) -> None:
         record.trace_behaviour.append(snap[1])
 
 
-def _check_assignment(assignment, bids, batch, free, willing, capable) -> None:
+def _check_assignment(assignment, bids, batch, free, allowed, capable) -> None:
     robots = assignment[assignment >= 0]
     if not np.isfinite(bids[robots, np.flatnonzero(assignment >= 0)]).all():
         raise InvariantError("a robot was given a task it did not bid for")
@@ -189,7 +231,7 @@ def _check_assignment(assignment, bids, batch, free, willing, capable) -> None:
     types = batch.types[assignment >= 0]
     if not capable[robots, types].all():
         raise InvariantError("a robot was given a task type it cannot do")
-    if not willing[robots, types].all():
+    if not allowed[robots, types].all():
         raise InvariantError("a robot was given a task type it has refused")
 
 
@@ -239,6 +281,7 @@ def record_arrays(record: RunRecord) -> dict[str, np.ndarray]:
         out[f"rec/{name}/ids"] = ids
         out[f"rec/{name}/assigned"] = assigned
         out[f"rec/{name}/bids"] = np.concatenate(phase.bids) if phase.bids else np.zeros(0)
+        out[f"rec/{name}/lost_causes"] = phase.lost_causes
         for col in COMPLETION_COLUMNS:
             values = [getattr(c, col) for c in phase.completions]
             out[f"rec/{name}/c_{col}"] = np.array(values, dtype=str if col == "reason" else float)
@@ -278,14 +321,16 @@ def record_from_arrays(arrays: dict[str, np.ndarray]) -> RunRecord:
         def split(a, cut=cut, n=n_rounds):
             return np.split(a, cut) if n else []
 
-        phases.append(
-            PhaseRecord(
-                split(arrays[f"rec/{name}/ids"]),
-                split(arrays[f"rec/{name}/assigned"]),
-                split(arrays[f"rec/{name}/bids"]),
-                completions,
-            )
+        phase = PhaseRecord(
+            split(arrays[f"rec/{name}/ids"]),
+            split(arrays[f"rec/{name}/assigned"]),
+            split(arrays[f"rec/{name}/bids"]),
+            completions,
         )
+        causes = arrays.get(f"rec/{name}/lost_causes")  # absent in older checkpoints
+        if causes is not None:
+            phase.lost_causes = np.asarray(causes, dtype=np.int64)
+        phases.append(phase)
     return RunRecord(
         phases[0],
         phases[1],

@@ -10,7 +10,7 @@ Per robot j and task type i:
 
 Behaviour 0 (regular) turns into behaviour 1 (eager/hesitant) once |v - 1| >= delta_v; a robot
 refuses T_i for good (behaviour 2) once it has n_min observations and u < delta_u, unless that
-would leave fewer than coverage_k willing robots for T_i.
+would leave fewer than coverage_k willing robots for T_i or the robot with no type at all.
 """
 
 from __future__ import annotations
@@ -84,13 +84,15 @@ class ExperienceModel:
         """Apply behaviour 2 where it is due; return the new (robot, type) refusals.
 
         Candidates are taken lowest TEM first, so when the coverage guard allows only some
-        robots to drop a type, the least experienced ones drop it.
+        robots to drop a type, the least experienced ones drop it. A robot never refuses its
+        last type: it stays in the team with at least one.
         """
         u = self.u_
         due = self.willing_ & (self.count_ >= self.spec.n_min) & (u < self.spec.delta_u)
         out = []
         for j, i in sorted(zip(*np.nonzero(due), strict=True), key=lambda ji: (u[ji], ji)):
-            if self.willing_[:, i].sum() - 1 >= self.spec.coverage_k:
+            keeps_a_type = self.willing_[j].sum() > 1
+            if keeps_a_type and self.willing_[:, i].sum() - 1 >= self.spec.coverage_k:
                 self.behaviour_[j, i] = B2_REFUSED
                 out.append((int(j), int(i)))
         return out

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from allocation.auction import solve_priority_assignment
 from learning.experience import B1_EAGER_HESITANT, ExperienceModel
 from learning.qlmrta import QLAllocator
 from learning.qtable import DO
 from sim.tasks import Batch
+from sim.world import WorldState
 
 
 class ExpTAllocator(QLAllocator):
@@ -29,6 +31,45 @@ class ExpTAllocator(QLAllocator):
 
     def willing(self) -> np.ndarray:
         return self.experience_.willing_
+
+    def allowed(self) -> np.ndarray:
+        """Willing robots; under the reserve rule every capable robot (refused: as reserve)."""
+        if self.scenario.experience.refusal == "reserve":
+            return self.capable
+        return self.experience_.willing_
+
+    def _second_round(
+        self,
+        state: WorldState,
+        batch: Batch,
+        costs: np.ndarray,
+        assignment: np.ndarray,
+        bids: np.ndarray,
+    ) -> None:
+        """Reserve rule: tasks no willing robot took go to free robots that refused the type.
+
+        Reserve robots bid their plain cost (no experience scaling: they have none left for
+        the type) in a second priority auction over the tasks still open and the robots not
+        given a task in this round. ``assignment`` and ``bids`` are completed in place.
+        """
+        if self.scenario.experience.refusal != "reserve":
+            return
+        open_tasks = np.flatnonzero(assignment < 0)
+        if open_tasks.size == 0:
+            return
+        reserve = self.capable & self.experience_.refused_
+        taken = np.zeros(len(state.free), dtype=bool)
+        taken[assignment[assignment >= 0]] = True
+        free = state.free & ~taken
+        types = batch.types[open_tasks]
+        ok = reserve[:, types] & free[:, None]
+        if not ok.any():
+            return
+        second = np.where(ok, costs[:, open_tasks], np.inf)
+        won = solve_priority_assignment(second, batch.high[open_tasks])
+        got = won >= 0
+        assignment[open_tasks[got]] = won[got]
+        bids[won[got], open_tasks[got]] = second[won[got], np.flatnonzero(got)]
 
     def _bid_divisor(self) -> np.ndarray:
         return self.experience_.bid_scale()

@@ -86,6 +86,10 @@ class QLAllocator:
         """(m, n) robots that can and will do each type (QL-MRTA: all capable ones)."""
         return self.capable
 
+    def allowed(self) -> np.ndarray:
+        """(m, n) robots that may be given each type in a round (QL-MRTA: the willing ones)."""
+        return self.willing()
+
     def learning_space(self) -> np.ndarray:
         """Per-robot learning-space dimension 2 * n_j**h for the current alphabets."""
         return np.array([t.size for t in self.tables_], dtype=np.int64)
@@ -102,6 +106,16 @@ class QLAllocator:
 
     def _restructure(self) -> None:
         """QL-MRTA never changes a robot's task set."""
+
+    def _second_round(
+        self,
+        state: WorldState,
+        batch: Batch,
+        costs: np.ndarray,
+        assignment: np.ndarray,
+        bids: np.ndarray,
+    ) -> None:
+        """QL-MRTA has no second auction (ExpT-MRTA's reserve rule has one)."""
 
     # -- one round ---------------------------------------------------------------------------
     def allocate(
@@ -134,8 +148,11 @@ class QLAllocator:
         self._after_auction(batch, bids, assignment)
         if self.learning_:
             self._learn(batch, assignment, decisions, willing)
+        primary = assignment.copy()
+        self._second_round(state, batch, costs, assignment, bids)
+        if self.learning_:
             self._restructure()
-        self._mark_busy(batch, assignment)
+        self._mark_busy(batch, primary)
         return assignment, bids
 
     def _choose(self, table: HistoryQTable, s: int) -> int:

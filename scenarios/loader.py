@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from sim.scenario import (
+    REFUSAL_RULES,
     DriveSpec,
     ExperienceSpec,
     LearningSpec,
@@ -174,6 +175,11 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
     v.check(0.0 <= e.delta_u <= 2.0, "experience.delta_u", "must be in [0, 2] (TEM lies in (0, 2))")
     v.check(e.n_min >= 1, "experience.n_min", "must be at least 1")
     v.check(e.coverage_k >= 1, "experience.coverage_k", "must be at least 1")
+    if e.refusal not in REFUSAL_RULES:
+        hint = _did_you_mean(e.refusal, REFUSAL_RULES)
+        v.fail(
+            "experience.refusal", f"unknown rule {e.refusal!r}{hint}; one of {list(REFUSAL_RULES)}"
+        )
 
     spatial = None
     if "spatial" in doc:
@@ -298,6 +304,10 @@ class _Validator:
             if isinstance(default, bool):
                 if not isinstance(val, bool):
                     self.fail(where, f"must be true or false, got {_kind(val)}")
+                values[name] = val
+            elif isinstance(default, str):
+                if not isinstance(val, str):
+                    self.fail(where, f"must be a string, got {_kind(val)}")
                 values[name] = val
             elif isinstance(default, int):
                 values[name] = self.number(table, name, where, integer=True)

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from learning.episode import RunRecord
+from learning.episode import LOSS_CAUSES, RunRecord
 from learning.qlmrta import joint_log10
 from sim.scenario import Scenario
 from sim.tasks import TaskStream
@@ -24,8 +24,45 @@ def _ratio(allocated: int, announced: int) -> float:
     return allocated / announced if announced else float("nan")
 
 
+def offered_load(scenario: Scenario) -> float:
+    """Work offered per unit of fleet capacity: mean batch x mean execution time / (interval x m).
+
+    Travel is not counted (it depends on the allocation): in a spatial world the real load is
+    higher. Above 1 the fleet cannot do every task even if every robot is always busy.
+    """
+    s = scenario.stream
+    mean_batch = (s.batch_min + s.batch_max) / 2.0
+    mean_exec = float(np.mean(scenario.exec_time_s))
+    return mean_batch * mean_exec / (s.announce_interval_s * scenario.n_robots)
+
+
+def specialisation(scenario: Scenario, types: np.ndarray, robots: np.ndarray) -> dict:
+    """Entropy (bits) of the task types each robot did: 0 = one type only.
+
+    Args:
+        types, robots: type and robot of every task allocated (test phase).
+    """
+    per_robot = {}
+    for j, robot in enumerate(scenario.robots):
+        counts = np.bincount(types[robots == j], minlength=scenario.n_types).astype(float)
+        total = counts.sum()
+        if total == 0:
+            per_robot[robot.name] = None
+            continue
+        p = counts[counts > 0] / total
+        per_robot[robot.name] = float(-(p * np.log2(p)).sum()) + 0.0
+    done = [h for h in per_robot.values() if h is not None]
+    return {
+        "entropy_bits_mean": float(np.mean(done)) if done else None,
+        "entropy_bits": per_robot,
+        "note": "entropy of the task types each robot was allocated on the test sets; "
+        "null for a robot allocated nothing",
+    }
+
+
 def summarize_run(scenario: Scenario, stream: TaskStream, record: RunRecord, learns: bool) -> dict:
-    """JSON-able summary of one run: test-phase completion, tasks, learning space, experience."""
+    """JSON-able summary of one run: test-phase completion, tasks, learning space, experience,
+    why tasks were lost, offered load and specialisation."""
     ids, assigned = record.test.arrays()
     high = stream.high[ids]
     types = stream.types[ids]
@@ -47,6 +84,12 @@ def summarize_run(scenario: Scenario, stream: TaskStream, record: RunRecord, lea
             "by_type": by_type,
         },
         "tasks": {"announced": int(taken.size), "allocated": int(taken.sum())},
+        "lost": dict(zip(LOSS_CAUSES, record.test.lost_causes.tolist(), strict=True)),
+        "offered_load": offered_load(scenario),
+        "willing_per_type": dict(
+            zip(scenario.task_types, record.willing_final.sum(axis=0).tolist(), strict=True)
+        ),
+        "specialisation": specialisation(scenario, types[taken], assigned[taken]),
     }
     if learns:
         names = [r.name for r in scenario.robots]

@@ -49,15 +49,25 @@ class LearningSpec:
     penalty_lost_high: float = 5.0  # per capable high-priority task lost while busy with a low one
 
 
+REFUSAL_RULES = ("paper", "reserve")
+
+
 @dataclass(frozen=True, slots=True)
 class ExperienceSpec:
-    """ExpT-MRTA thresholds (SPEC §4)."""
+    """ExpT-MRTA thresholds (SPEC §4) and the refusal rule.
+
+    ``refusal = "paper"``: a refused type is never done again by the robot (paper §4.3).
+    ``refusal = "reserve"``: a refused type leaves the robot's learning space and its regular
+    bidding, but the robot stays a reserve for it: a task of the type that no willing robot
+    took in its round goes to a free reserve robot in a second auction (plain cost bids).
+    """
 
     delta_v: float = 0.2
     delta_u: float = 0.08
     n_min: int = 40
     coverage_k: int = 2
     sticky_b1: bool = True
+    refusal: str = "reserve"
 
 
 @dataclass(frozen=True, slots=True)

@@ -17,6 +17,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 GOLDEN = HERE / "golden.json"
 
+PAPER_RULE = (("experience.refusal", "paper"),)
+RESERVE_RULE = (("experience.refusal", "reserve"),)
 SHORT_ABSTRACT = (
     ("stream.n_sets", 10),
     ("stream.learn_sets", 7),
@@ -43,7 +45,8 @@ SHORT_LARGE = (
 CASES = (
     ("abstract_market", "paper", "market", "abstract", 3, SHORT_ABSTRACT, None),
     ("abstract_ql", "paper", "ql", "abstract", 3, SHORT_ABSTRACT, None),
-    ("abstract_expt", "paper", "expt", "abstract", 3, SHORT_ABSTRACT, None),
+    ("abstract_expt", "paper", "expt", "abstract", 3, PAPER_RULE + SHORT_ABSTRACT, None),
+    ("abstract_expt_reserve", "paper", "expt", "abstract", 3, RESERVE_RULE + SHORT_ABSTRACT, None),
     (
         "spatial_expt_distance_scalar",
         "paper_spatial",

@@ -76,7 +76,7 @@ def test_bid_scale_is_tem_in_behaviour_one_only():
 
 def test_refusal_needs_n_min_observations_and_low_tem():
     spec = ExperienceSpec(delta_u=0.7, n_min=3, coverage_k=1)
-    exp = ExperienceModel(np.ones((2, 1), dtype=bool), spec)
+    exp = ExperienceModel(np.ones((2, 2), dtype=bool), spec)  # type 1 keeps both in the team
     for _ in range(2):
         exp.observe_auction(0, np.array([0, 1]), 1)
     assert exp.u_[0, 0] < 0.7  # (0.755 + 0.538) / 2 = 0.646
@@ -89,7 +89,7 @@ def test_refusal_needs_n_min_observations_and_low_tem():
 
 def test_coverage_guard_keeps_k_willing_robots_and_drops_least_experienced_first():
     spec = ExperienceSpec(delta_u=1.5, n_min=1, coverage_k=2)  # everyone is due at once
-    exp = ExperienceModel(np.ones((4, 1), dtype=bool), spec)
+    exp = ExperienceModel(np.ones((4, 2), dtype=bool), spec)
     exp.observe_auction(0, np.array([0, 1, 2, 3]), 3)
     exp.observe_auction(0, np.array([0, 1, 2]), 2)
     exp.observe_auction(0, np.array([0, 1]), 1)
@@ -97,3 +97,15 @@ def test_coverage_guard_keeps_k_willing_robots_and_drops_least_experienced_first
     assert len(refused) == 2
     assert exp.willing_[:, 0].sum() == 2
     assert {j for j, _ in refused} == {0, 1}  # R0 and R1 have the lowest TEM
+
+
+def test_a_robot_never_refuses_its_last_type():
+    """R0 can do only type 0; R1 can do 0 and 1. Both are due to refuse type 0."""
+    spec = ExperienceSpec(delta_u=1.5, n_min=1, coverage_k=1)
+    capable = np.array([[True, False], [True, True], [True, False]])
+    exp = ExperienceModel(capable, spec)
+    exp.observe_auction(0, np.array([0, 1, 2]), 2)  # R2 wins: R0 and R1 fall below 1
+    assert exp.u_[0, 0] < 1.5 and exp.u_[1, 0] < 1.5
+    assert exp.refusals() == [(1, 0)]  # R0 would be left with nothing: it keeps type 0
+    assert exp.willing_[0].tolist() == [True, False]
+    assert exp.willing_[1].tolist() == [False, True]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -20,6 +22,7 @@ class Spy:
     def __init__(self, inner):
         self.inner = inner
         self.rounds = []
+        self.bids = []
 
     def __getattr__(self, name):
         return getattr(self.inner, name)
@@ -28,6 +31,7 @@ class Spy:
         willing = self.inner.willing().copy()
         assignment, bids = self.inner.allocate(state, batch, costs)
         self.rounds.append((batch, state.free.copy(), willing, assignment.copy()))
+        self.bids.append(bids.copy())
         return assignment, bids
 
 
@@ -61,21 +65,36 @@ def test_every_task_allocated_or_lost_never_both(small_paper, name):
         )  # allocated ones complete, lost ones don't
 
 
-@pytest.mark.parametrize("name", ["market", "ql", "expt"])
-def test_no_robot_does_a_task_it_cannot_do_has_refused_or_while_busy(small_paper, name):
-    _, spy, _ = play(small_paper, name)
+@pytest.mark.parametrize(
+    "name, rule", [("market", "paper"), ("ql", "paper"), ("expt", "paper"), ("expt", "reserve")]
+)
+def test_no_robot_does_a_task_it_cannot_do_has_refused_or_while_busy(small_paper, name, rule):
+    """Paper rule: a refused type is never done. Reserve rule: only when no willing robot was
+    left to bid for the task (every willing one was busy, given another task, or waited)."""
+    exp = dataclasses.replace(small_paper.experience, refusal=rule)
+    _, spy, _ = play(dataclasses.replace(small_paper, experience=exp), name)
     capable = small_paper.capability_matrix()
-    refusals_seen = 0
-    for batch, free, willing, assignment in spy.rounds:
+    refusals_seen = reserve_used = 0
+    for (batch, free, willing, assignment), bids in zip(spy.rounds, spy.bids, strict=True):
         refusals_seen += int((capable & ~willing).sum())
         taken = np.flatnonzero(assignment >= 0)
         robots = assignment[taken]
         assert len(set(robots.tolist())) == robots.size
         assert capable[robots, batch.types[taken]].all()
-        assert willing[robots, batch.types[taken]].all()
         assert free[robots].all()
+        by_reserve = ~willing[robots, batch.types[taken]]
+        if rule == "paper":
+            assert not by_reserve.any()
+        busy_or_given = ~free.copy()
+        busy_or_given[robots] = True
+        for t in taken[by_reserve]:
+            left = willing[:, batch.types[t]] & ~busy_or_given
+            assert np.isinf(bids[left, t]).all()  # no willing robot left over bid for it
+            reserve_used += 1
     if name == "expt":
-        assert refusals_seen > 0  # the check above really met refused types
+        assert refusals_seen > 0  # the checks above really met refused types
+    if rule == "reserve":
+        assert reserve_used > 0
 
 
 def test_invariant_violation_stops_the_run(tiny):
@@ -89,6 +108,9 @@ def test_invariant_violation_stops_the_run(tiny):
         def begin_set(self, s, learning): ...
         def end_set(self): ...
         def willing(self):
+            return self.capable
+
+        def allowed(self):
             return self.capable
 
         def learning_space(self):

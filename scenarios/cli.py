@@ -243,6 +243,12 @@ def cmd_sweep(args) -> int:
     return run(args)
 
 
+def cmd_study(args) -> int:
+    from scenarios.study import cmd_study as run
+
+    return run(args)
+
+
 COMMANDS = {
     "validate": cmd_validate,
     "reproduce": cmd_reproduce,
@@ -252,6 +258,7 @@ COMMANDS = {
     "render": cmd_render,
     "bench": cmd_bench,
     "sweep": cmd_sweep,
+    "study": cmd_study,
     "soak": cmd_soak,
 }
 
@@ -262,6 +269,7 @@ WHERE = {  # what an interrupted command leaves behind, said on Ctrl-C
     "run": "with --checkpoint, OUT/checkpoint.npz holds the last finished task set: "
     "repeat the command with --resume to continue",
     "sweep": "finished runs are in OUT/runs.csv: repeat the command to run only the missing ones",
+    "study": "finished runs are in OUT/<part>/runs.csv: repeat the command to go on",
     "soak": "no output is written by a soak",
 }
 

@@ -159,8 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument(
         "--costs",
         type=_name_list({"abstract", "distance", "time"}),
-        default=["abstract", "distance"],
-        help="comma-separated cost models (default abstract,distance)",
+        default=["abstract", "distance", "time"],
+        help="comma-separated cost models (default abstract,distance,time)",
     )
     c.add_argument(
         "--allocators",
@@ -241,9 +241,11 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--seed", type=_non_negative_int, default=0)
     k.add_argument("--json", action="store_true", help="print one JSON object")
 
+    from scenarios.study import add_parser as add_study_parser
     from scenarios.sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub)
+    add_study_parser(sub)
     return p
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from scenarios.figures import STYLE, _figure, _save, allocator_bars
+from scenarios.figures import STYLE, allocator_bars, new_figure, save_figure
 from scenarios.metrics import aggregate
 from scenarios.protocol import RunSpec, _load, check_cost, run_many, write_json_atomic
 
@@ -14,6 +14,8 @@ COLUMNS = (
     ("high", "completion high", "{:.3f}"),
     ("all", "completion all", "{:.3f}"),
     ("distance_m", "distance driven [m]", "{:.0f}"),
+    ("distance_per_task_m", "distance per task [m]", "{:.2f}"),
+    ("time_to_finish_s", "time per task [s]", "{:.2f}"),
     ("high_wait_s", "high-prio wait [s]", "{:.2f}"),
     ("space", "learning space", "{:.0f}"),
 )
@@ -57,6 +59,7 @@ def _row(agg: dict) -> dict:
     spatial = agg.get("spatial", {})
     for key in (
         "distance_m",
+        "distance_per_task_m",
         "high_wait_s",
         "time_to_finish_s",
         "estimate_abs_error",
@@ -104,7 +107,7 @@ def fig_compare(doc: dict, path: Path | None = None):
         ("space", "final learning space |S| x |A|"),
     )
     with mpl.rc_context(STYLE):
-        fig = _figure(12.0, 6.6)
+        fig = new_figure(12.0, 6.6)
         axes = fig.subplots(2, 3).ravel()
         x = np.arange(len(costs))
         for ax, (key, title) in zip(axes, panels, strict=True):
@@ -124,5 +127,5 @@ def fig_compare(doc: dict, path: Path | None = None):
         handles, labels = axes[0].get_legend_handles_labels()
         fig.legend(handles, labels, loc="outside lower center", ncols=len(allocs), frameon=False)
         fig.suptitle(f"{doc['scenario']}: cost models compared ({len(doc['seeds'])} seeds, 95% CI)")
-    _save(fig, path)
+    save_figure(fig, path)
     return fig

@@ -25,7 +25,8 @@ STYLE = {
 }
 
 
-def _figure(w_in: float, h_in: float):
+def new_figure(w_in: float, h_in: float):
+    """A constrained-layout Figure on its own Agg canvas (no pyplot, no backend switch)."""
     import matplotlib as mpl
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -36,7 +37,8 @@ def _figure(w_in: float, h_in: float):
     return fig
 
 
-def _save(fig, path: Path | None) -> None:
+def save_figure(fig, path: Path | None) -> None:
+    """Write ``fig`` to ``path`` atomically (temporary file, then rename); None: do nothing."""
     if path is not None:
         path = Path(path)
         tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
@@ -79,7 +81,7 @@ def fig_completion(metrics: dict, path: Path | None = None):
     import matplotlib as mpl
 
     with mpl.rc_context(STYLE):
-        fig = _figure(4.2 * cols, 2.9 * rows)
+        fig = new_figure(4.2 * cols, 2.9 * rows)
         axes = fig.subplots(rows, cols, squeeze=False).ravel()
         for ax, pair, letter in zip(axes, panels, "abcdefghijklmnopqrstuvwxyz", strict=False):
             groups = [(t, p) for t in pair for p in ("low", "high")]
@@ -103,7 +105,7 @@ def fig_completion(metrics: dict, path: Path | None = None):
         scen = metrics.get("scenario", "")
         n = len(metrics.get("seeds", []))
         fig.suptitle(f"Task completion ratio on the test sets ({scen}, {n} seeds, 95% CI)")
-    _save(fig, path)
+    save_figure(fig, path)
     return fig
 
 
@@ -117,7 +119,7 @@ def fig_robot_trace(trace: dict, path: Path | None = None):
     tem = np.asarray(trace["tem"])
     beh = np.asarray(trace["behaviour"])
     with mpl.rc_context(STYLE):
-        fig = _figure(6.4, 7.0)
+        fig = new_figure(6.4, 7.0)
         ax_u, ax_b, ax_s = fig.subplots(3, 1, sharex=True)
         for k, t in enumerate(caps):
             i = all_types.index(t)
@@ -145,7 +147,7 @@ def fig_robot_trace(trace: dict, path: Path | None = None):
         ax_s.minorticks_off()
         for ax in (ax_u, ax_b, ax_s):
             ax.grid(alpha=0.3)
-    _save(fig, path)
+    save_figure(fig, path)
     return fig
 
 
@@ -154,7 +156,7 @@ def fig_tradeoff(points: list[dict], references: dict, path: Path | None = None)
     import matplotlib as mpl
 
     with mpl.rc_context(STYLE):
-        fig = _figure(9.6, 3.9)
+        fig = new_figure(9.6, 3.9)
         ax, ax2 = fig.subplots(1, 2)
         xs = [p["space"] for p in points]
         ys = [p["all"] for p in points]
@@ -230,7 +232,7 @@ def fig_tradeoff(points: list[dict], references: dict, path: Path | None = None)
         ax2.set_title("(b) Completion by priority against δu")
         ax2.legend(frameon=False, fontsize=8)
         ax2.grid(alpha=0.3)
-    _save(fig, path)
+    save_figure(fig, path)
     return fig
 
 
@@ -257,7 +259,7 @@ def fig_run_spatial(table: dict, spatial: dict, cost: str, path: Path | None = N
     start = np.asarray(table["time_to_start_s"])
     finish = np.asarray(table["time_to_finish_s"])
     with mpl.rc_context(STYLE):
-        fig = _figure(9.6, 7.0)
+        fig = new_figure(9.6, 7.0)
         (a, b), (c, d) = fig.subplots(2, 2)
         bins = np.linspace(0, max(float(np.nanmax(finish[ok], initial=1.0)), 1.0), 30)
         for sel, label, colour in (
@@ -311,5 +313,5 @@ def fig_run_spatial(table: dict, spatial: dict, cost: str, path: Path | None = N
             f"{spatial.get('collisions_wall', 0):.0f}; deepest overlap "
             f"{1000 * spatial.get('max_overlap_m', 0.0):.1f} mm; failed tasks {int((~ok).sum())}"
         )
-    _save(fig, path)
+    save_figure(fig, path)
     return fig

@@ -126,6 +126,7 @@ def spatial_metrics(scenario: Scenario, stream: TaskStream, record: RunRecord, c
         nan = float("nan")
         keys = (
             "distance_m",
+            "distance_per_task_m",
             "time_to_start_s",
             "time_to_finish_s",
             "high_wait_s",
@@ -141,6 +142,7 @@ def spatial_metrics(scenario: Scenario, stream: TaskStream, record: RunRecord, c
     high = stream.high[ids]
     return {
         "distance_m": float(dist.sum()),
+        "distance_per_task_m": float(dist.mean()),
         "time_to_start_s": float(start.mean()),
         "time_to_finish_s": float(finish.mean()),
         "high_wait_s": float(start[high].mean()) if high.any() else float("nan"),
@@ -150,6 +152,18 @@ def spatial_metrics(scenario: Scenario, stream: TaskStream, record: RunRecord, c
         else float("nan"),
         "tasks_failed": len(record.test.completions) - len(comps),
     }
+
+
+def spatial_per_robot(scenario: Scenario, record: RunRecord) -> dict:
+    """Per robot, test sets: tasks completed, metres driven per completed task (None if none)."""
+    out = {}
+    for j, robot in enumerate(scenario.robots):
+        dist = [c.distance_m for c in record.test.completions if c.ok and c.robot == j]
+        out[robot.name] = {
+            "tasks_done": len(dist),
+            "distance_per_task_m": float(np.mean(dist)) if dist else None,
+        }
+    return out
 
 
 def completion_table(scenario: Scenario, stream: TaskStream, record: RunRecord) -> dict:

@@ -31,7 +31,12 @@ from learning.checkpoint import (
 )
 from learning.episode import record_arrays, record_from_arrays, run_protocol
 from scenarios.loader import load_scenario
-from scenarios.metrics import completion_table, spatial_metrics, summarize_run
+from scenarios.metrics import (
+    completion_table,
+    spatial_metrics,
+    spatial_per_robot,
+    summarize_run,
+)
 from sim import make_world
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
@@ -173,6 +178,7 @@ def execute(
             **spatial_metrics(scenario, stream, record, spec.cost),
             **world.summary(record),
         }
+        out["per_robot"] = spatial_per_robot(scenario, record)
     if spec.trace_robot and record.trace_u:
         j = [r.name for r in scenario.robots].index(spec.trace_robot)
         learn_rounds = len(record.learn.task_ids)

@@ -16,6 +16,10 @@ A sweep file names scenarios, allocators, cost models, seeds and the parameters 
     "experience.delta_u" = [0.05, 0.1, 0.3]
     "experience.n_min" = [20, 40]
 
+A ``[[points]]`` entry may add ``allocators = ["expt"]`` to run only those allocators at that
+point (an ExpT-MRTA parameter need not be repeated for QL-MRTA and the market). String
+parameters (``"experience.refusal" = "reserve"``) are swept like numbers.
+
 Every run writes one row to ``runs.csv`` as soon as it finishes (flushed and fsynced), so an
 interrupted sweep re-run into the same folder only runs what is missing. At the end the rows are
 rewritten in spec order (never in completion order), and ``summary.csv``, ``summary.json`` and

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from learning.episode import LOSS_CAUSES
 from scenarios.metrics import ci95
 from scenarios.protocol import UserError, write_json_atomic
 
@@ -28,9 +29,15 @@ METRIC_COLUMNS = (
     "space_final",
     "space_joint_log10",
     "kept_capabilities",  # (robot, type) pairs still willing at the end (ExpT refusals shrink it)
+    "min_willing",  # fewest willing robots of any type at the end
+    "offered_load",  # mean batch x mean execution time / (announce interval x robots)
+    *(f"lost_{cause}" for cause in LOSS_CAUSES),  # test-set tasks lost, by cause
+    "specialisation_bits",  # mean over robots of the entropy of the types each was given
+    "distance_per_task_m",  # spatial: metres driven per completed task (test sets)
+    "time_per_task_s",  # spatial: allocation to done, per completed task
 )
 INT_COLUMNS = {"seed", "tasks_announced", "tasks_allocated", "space_initial", "space_final"}
-INT_COLUMNS |= {"kept_capabilities"}
+INT_COLUMNS |= {"kept_capabilities", "min_willing", *(f"lost_{c}" for c in LOSS_CAUSES)}
 SUMMARY_METRICS = (
     "completion_low",
     "completion_high",
@@ -38,6 +45,12 @@ SUMMARY_METRICS = (
     "space_final",
     "space_joint_log10",
     "kept_capabilities",
+    "min_willing",
+    "offered_load",
+    *(f"lost_{cause}" for cause in LOSS_CAUSES),
+    "specialisation_bits",
+    "distance_per_task_m",
+    "time_per_task_s",
 )
 PANELS = (
     ("completion_high", "high-priority completion"),
@@ -49,6 +62,11 @@ LINESTYLES = ("-", "--", ":", "-.")
 
 def _num(x: float | int) -> str:
     return str(x) if isinstance(x, int) else repr(float(x))
+
+
+def _opt(x: float | None) -> str:
+    """A number as CSV text; empty for None or NaN (no value)."""
+    return "" if x is None or (isinstance(x, float) and math.isnan(x)) else _num(x)
 
 
 def metric_row(summary: dict) -> dict[str, str]:
@@ -64,7 +82,17 @@ def metric_row(summary: dict) -> dict[str, str]:
         "space_final": "",
         "space_joint_log10": "",
         "kept_capabilities": "",
+        "min_willing": _num(min(summary["willing_per_type"].values())),
+        "offered_load": _num(summary["offered_load"]),
+        **{f"lost_{c}": _num(n) for c, n in summary["lost"].items()},
+        "specialisation_bits": _opt(summary["specialisation"]["entropy_bits_mean"]),
+        "distance_per_task_m": "",
+        "time_per_task_s": "",
     }
+    spatial = summary.get("spatial")
+    if spatial is not None:
+        row["distance_per_task_m"] = _opt(spatial["distance_per_task_m"])
+        row["time_per_task_s"] = _opt(spatial["time_to_finish_s"])
     space = summary.get("learning_space")
     if space is not None:
         row["space_initial"] = _num(int(space["initial"]))
@@ -145,9 +173,10 @@ def typed_row(row: Sequence[str], sweep) -> dict:
     from scenarios.sweep_spec import PARAMETERS
 
     bools = {p for p in sweep.parameters if isinstance(PARAMETERS[p], bool)}
+    strings = {p for p in sweep.parameters if isinstance(PARAMETERS[p], str)}
     out = {}
     for column, text in zip(sweep.columns(), row, strict=True):
-        if column in ("scenario", "allocator", "cost"):
+        if column in ("scenario", "allocator", "cost") or column in strings:
             out[column] = text
         elif column in sweep.parameters and isinstance(PARAMETERS[column], float):
             out[column] = float(text)
@@ -156,7 +185,7 @@ def typed_row(row: Sequence[str], sweep) -> dict:
     return out
 
 
-def _stats(values: list) -> tuple[float, float]:
+def mean_ci(values: list) -> tuple[float, float]:
     """(mean, 95% CI half-width) ignoring missing values; -inf (an empty space) stays -inf."""
     arr = [float(v) for v in values if v is not None and not math.isnan(float(v))]
     if not arr:
@@ -166,7 +195,7 @@ def _stats(values: list) -> tuple[float, float]:
     return float(np.mean(arr)), ci95(arr)
 
 
-def _clean(x):
+def json_number(x):
     """JSON has no NaN or infinity: they become null."""
     return None if isinstance(x, float) and not math.isfinite(x) else x
 
@@ -182,7 +211,7 @@ def summarize(sweep, records: list[dict]) -> list[dict]:
         entry = dict(zip(["scenario", "allocator", "cost", *sweep.parameters], key, strict=True))
         entry["seeds"] = len(runs)
         for m in SUMMARY_METRICS:
-            entry[f"{m}_mean"], entry[f"{m}_ci95"] = _stats([r[m] for r in runs])
+            entry[f"{m}_mean"], entry[f"{m}_ci95"] = mean_ci([r[m] for r in runs])
         out.append(entry)
     return out
 
@@ -210,7 +239,7 @@ def write_outputs(sweep, rows: list[list[str]], out: Path) -> list[dict]:
             "parameters": list(sweep.parameters),
             "runs": len(records),
         },
-        "groups": [{k: _clean(v) for k, v in e.items()} for e in summary],
+        "groups": [{k: json_number(v) for k, v in e.items()} for e in summary],
     }
     write_json_atomic(out / "summary.json", doc)
     for p in sweep.parameters:
@@ -232,12 +261,12 @@ def fig_sensitivity(sweep, records: list[dict], parameter: str, path: Path | Non
     Points are means over seeds and over the other swept parameters (marginal effect), with 95%
     confidence bars over those runs. Each line carries ``gid = "<metric>:<label>"``.
     """
-    from scenarios.figures import ALLOCATOR_LABELS, _figure, _save, allocator_colour
+    from scenarios.figures import ALLOCATOR_LABELS, allocator_colour, new_figure, save_figure
 
     xs = sorted({r[parameter] for r in records})
     numeric = all(isinstance(x, int | float) and not isinstance(x, bool) for x in xs)
     pos = {x: (float(x) if numeric else float(i)) for i, x in enumerate(xs)}
-    fig = _figure(4.0 * len(PANELS), 3.6)
+    fig = new_figure(4.0 * len(PANELS), 3.6)
     axes = fig.subplots(1, len(PANELS))
     lines = [(s, a, c) for s in sweep.scenarios for a in sweep.allocators for c in sweep.costs]
     for k, (s, a, c) in enumerate(lines):
@@ -246,7 +275,7 @@ def fig_sensitivity(sweep, records: list[dict], parameter: str, path: Path | Non
         label += f" / {s}" if len(sweep.scenarios) > 1 else ""
         mine = [r for r in records if (r["scenario"], r["allocator"], r["cost"]) == (s, a, c)]
         for ax, (metric, _) in zip(axes, PANELS, strict=True):
-            stats = [_stats([r[metric] for r in mine if r[parameter] == x]) for x in xs]
+            stats = [mean_ci([r[metric] for r in mine if r[parameter] == x]) for x in xs]
             mean = np.array([m for m, _ in stats])
             if np.isnan(mean).all():
                 continue
@@ -267,5 +296,5 @@ def fig_sensitivity(sweep, records: list[dict], parameter: str, path: Path | Non
     if handles:
         axes[0].legend(handles, labels, loc="best")
     fig.suptitle(f"sweep {sweep.name}: sensitivity to {parameter} (mean ± 95% CI)")
-    _save(fig, path)
+    save_figure(fig, path)
     return fig

@@ -35,7 +35,7 @@ TOP_KEYS = {"sweep", "fixed", "grid", "points"}
 SWEEP_KEYS = {"name", "description", "scenarios", "allocators", "costs", "seeds"}
 MAX_RUNS = 100_000
 
-Value = bool | int | float
+Value = bool | int | float | str
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,6 +99,8 @@ def fmt_value(value: Value) -> str:
     """CSV text of a parameter value: true/false, integers as such, floats round-trip exact."""
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, str):
+        return value
     if isinstance(value, int):
         return str(value)
     return repr(float(value))
@@ -146,8 +148,10 @@ class _Parser:
                 full = f"{where}.{key}" if where else key
                 self.fail(full, f"unknown key{_did_you_mean(key, sorted(allowed))}")
 
-    def names(self, table: dict, key: str, choices, default=None) -> tuple[str, ...]:
-        where = f"sweep.{key}"
+    def names(
+        self, table: dict, key: str, choices, default=None, where: str = "sweep"
+    ) -> tuple[str, ...]:
+        where = f"{where}.{key}"
         val = table.get(key, default)
         if val is None:
             self.fail(where, "missing")
@@ -186,6 +190,10 @@ class _Parser:
 
     def value(self, where: str, param: str, val: Any) -> Value:
         default = PARAMETERS[param]
+        if isinstance(default, str):
+            if not isinstance(val, str):
+                self.fail(where, f"must be a string, got {val!r}")
+            return val
         if isinstance(default, bool):
             if not isinstance(val, bool):
                 self.fail(where, f"must be true or false, got {val!r}")
@@ -238,14 +246,19 @@ class _Parser:
         seeds = self.seeds(head)
         fixed_raw = self.params(doc.get("fixed", {}), "fixed")
         fixed = tuple((p, self.value(f"fixed.{p}", p, v)) for p, v in fixed_raw.items())
-        parameters, combos, origin = self.combos(doc, fixed_raw)
+        parameters, combos, origin, only = self.combos(doc, fixed_raw, allocators)
         refs = [self.scenario_ref(i, s) for i, s in enumerate(scenarios)]
         for label, (ref, raw) in zip(scenarios, refs, strict=True):
             self.check_costs(label, ref, raw, costs)
             self.check_values(label, raw, fixed, (), (), "fixed")
             for combo, where in zip(combos, origin, strict=True):
                 self.check_values(label, raw, fixed, parameters, combo, where)
-        n_runs = len(scenarios) * len(allocators) * len(costs) * len(combos) * len(seeds)
+        n_runs = (
+            len(scenarios)
+            * len(costs)
+            * len(seeds)
+            * sum(len(allocators if o is None else o) for o in only)
+        )
         if n_runs > MAX_RUNS:
             self.fail("sweep", f"{n_runs:,} runs, more than the {MAX_RUNS:,} we accept")
         runs = tuple(
@@ -253,7 +266,8 @@ class _Parser:
             for label, (ref, _) in zip(scenarios, refs, strict=True)
             for a in allocators
             for c in costs
-            for combo in combos
+            for combo, o in zip(combos, only, strict=True)
+            if o is None or a in o
             for s in seeds
         )
         return SweepSpec(
@@ -261,14 +275,26 @@ class _Parser:
             parameters, combos, runs, description,
         )  # fmt: skip
 
-    def combos(self, doc: dict, fixed: dict):
-        """(parameters, value combinations, where each came from) of [grid] or [[points]]."""
+    def combos(self, doc: dict, fixed: dict, allocators: tuple[str, ...]):
+        """(parameters, value combinations, where each came from, allocators of each or None)
+        of [grid] or [[points]]; a point may name the allocators it applies to."""
         if "grid" in doc and "points" in doc:
             self.fail("points", "use either [grid] or [[points]], not both")
+        only: list[tuple[str, ...] | None] = []
         if "points" in doc:
             points = doc["points"]
             if not isinstance(points, list) or not points:
                 self.fail("points", "must be a non-empty array of tables [[points]]")
+            stripped = []
+            for i, p in enumerate(points):
+                if isinstance(p, dict) and "allocators" in p:
+                    p = dict(p)
+                    only.append(self.names(p, "allocators", set(allocators), where=f"points[{i}]"))
+                    del p["allocators"]
+                else:
+                    only.append(None)
+                stripped.append(p)
+            points = stripped
             flat = [self.params(p, f"points[{i}]") for i, p in enumerate(points)]
             parameters = tuple(flat[0])
             for i, p in enumerate(flat):
@@ -280,7 +306,7 @@ class _Parser:
                 tuple(self.value(f"points[{i}].{k}", k, p[k]) for k in parameters)
                 for i, p in enumerate(flat)
             ]
-            if len(set(combos)) != len(combos):
+            if len(set(zip(combos, only, strict=True))) != len(combos):
                 self.fail("points", "two points are equal")
             origin = [f"points[{i}]" for i in range(len(combos))]
         else:
@@ -296,10 +322,11 @@ class _Parser:
                 axes.append(vals)
             combos = list(itertools.product(*axes))
             origin = ["grid"] * len(combos)
+            only = [None] * len(combos)
         for p in parameters:
             if p in fixed:
                 self.fail(f"fixed.{p}", "is also swept; set it in one place only")
-        return parameters, tuple(combos), origin
+        return parameters, tuple(combos), origin, only
 
     def scenario_ref(self, i: int, label: str) -> tuple[str, dict]:
         """(what RunSpec.scenario should hold, the raw scenario document)."""

@@ -220,6 +220,13 @@ def aggregate(runs: list[dict]) -> dict:
             "allocated": sum(r["tasks"]["allocated"] for r in runs),
             "per_seed": [r["tasks"] for r in runs],
         },
+        "lost": {  # test-set tasks lost, summed over seeds, by cause (learning.episode)
+            cause: sum(r["lost"][cause] for r in runs) for cause in runs[0]["lost"]
+        },
+        "willing_per_type": {  # robots still willing at the end, mean over seeds
+            t: _mean([r["willing_per_type"][t] for r in runs]) for t in runs[0]["willing_per_type"]
+        },
+        "offered_load": runs[0]["offered_load"],
     }
     if "learning_space" in runs[0]:
         spaces = [r["learning_space"] for r in runs]

@@ -193,12 +193,24 @@ def _frontier_table(rows: list[dict]) -> list[dict]:
             }
         )
     for rule in ("paper", "reserve"):
-        mine = sorted((e for e in out if e["rule"] == rule), key=lambda e: e["space_final"]["mean"])
-        best = -math.inf
-        for e in mine:  # Pareto: no smaller space reaches a higher completion
-            e["on_frontier"] = e["all"]["mean"] > best
-            best = max(best, e["all"]["mean"])
+        front = pareto_front([e for e in out if e["rule"] == rule], "all")
+        for e in out:
+            if e["rule"] == rule:
+                e["on_frontier"] = any(e is f for f in front)
     return sorted(out, key=lambda e: (e["rule"], e["coverage_k"], e["delta_u"]))
+
+
+def pareto_front(entries: list[dict], metric: str) -> list[dict]:
+    """The best ``metric`` reachable at each space size: entries that no entry of smaller or
+    equal space beats, in order of growing space."""
+    front, best = [], -math.inf
+    ordered = sorted(entries, key=lambda e: (e["space_final"]["mean"], -(e[metric]["mean"] or 0)))
+    for e in ordered:
+        value = e[metric]["mean"]
+        if value is not None and value > best:
+            front.append(e)
+            best = value
+    return front
 
 
 def _spatial_table(rows: list[dict]) -> list[dict]:
@@ -314,13 +326,14 @@ def fig_load(load: list[dict], path: Path | None = None):
                 )  # fmt: skip
         ax.axvline(PAPER_LOAD, color="0.6", lw=0.8, ls=":")
         ax.set_title(f"completion, {metric} tasks")
-        ax.set_xlabel("offered load ρ = mean batch × exec time / (interval × robots)")
+        ax.set_xlabel("offered load ρ")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("completion ratio (test sets)")
     axes[0].legend(loc="lower left")
     fig.suptitle(
-        "Completion against offered load (paper scenario, 10 seeds, 95% CI; "
-        "hollow: every robot free at each announcement; dotted: the paper's load)"
+        "Completion against offered load ρ = mean batch × exec time / (interval × robots) "
+        "(paper scenario, 95% CI)\nhollow: every robot free at each announcement; "
+        "dotted: the paper's load"
     )
     save_figure(fig, path)
     return fig
@@ -380,8 +393,7 @@ def fig_frontier(frontier: list[dict], load: list[dict], path: Path | None = Non
             y = [_na(e[metric]["mean"]) for e in mine]
             ax.scatter(x, y, color=colour, marker=marker, alpha=0.55, s=22,
                        gid=f"{metric}:{rule}:points")  # fmt: skip
-            front = sorted((e for e in mine if e["on_frontier"]),
-                           key=lambda e: e["space_final"]["mean"])  # fmt: skip
+            front = pareto_front(mine, metric)
             ax.plot([e["space_final"]["mean"] for e in front],
                     [_na(e[metric]["mean"]) for e in front], color=colour, lw=1.5,
                     label=f"{label} (front over δu, k)", gid=f"{metric}:{rule}:front")  # fmt: skip

@@ -30,6 +30,7 @@ from allocation.costs import make_cost_model
 from learning.episode import protocol_sets
 from learning.experience import ExperienceModel
 from learning.rounds import drain, play_round
+from learning.seeding import run_generators
 from sim import make_world
 from sim.recording import TrajectoryRecorder
 from sim.scenario import Scenario
@@ -93,9 +94,9 @@ class AllocationRounds:
 
     def _start(self, run_seed: int, sets: str | None = None) -> None:
         """Draw the stream of ``run_seed`` and stand before its first round."""
-        stream_ss, world_ss, _ = np.random.SeedSequence(run_seed).spawn(3)
-        self.stream_ = generate_stream(self.scenario, np.random.default_rng(stream_ss))
-        self.world.reset(np.random.default_rng(world_ss))
+        rngs = run_generators(run_seed)
+        self.stream_ = generate_stream(self.scenario, rngs.stream)
+        self.world.reset(rngs.world)
         if self.render_mode == "rgb_array" and self.scenario.spatial is not None:
             self.recorder_ = TrajectoryRecorder.for_scenario(self.scenario)
             self.world.recorder = self.recorder_

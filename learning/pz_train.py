@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from learning.qtable import DO, WAIT, HistoryQTable
+from learning.seeding import run_generators
 from sim.scenario import Scenario
 
 
@@ -139,7 +140,7 @@ def play_protocol(env, seed: int, learn: bool = True) -> ProtocolResult:
         raise ValueError(f"play_protocol needs an env built with sets='protocol', not {env.sets!r}")
     sc = env.scenario
     n_learn = sc.stream.learn_sets
-    team = QLTeam(sc, np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
+    team = QLTeam(sc, run_generators(seed).allocator)
     obs, infos = env.reset(seed=seed)
     position, at_test, test_start = -1, None, None
     while env.agents:

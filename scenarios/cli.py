@@ -74,14 +74,12 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_stream(args) -> int:
-    import numpy as np
-
+    from learning.seeding import run_generators
     from scenarios.protocol import _load
     from sim.tasks import generate_stream, save_stream
 
     sc = _load(args.scenario)
-    stream_ss = np.random.SeedSequence(args.seed).spawn(3)[0]
-    stream = generate_stream(sc, np.random.default_rng(stream_ss))
+    stream = generate_stream(sc, run_generators(args.seed).stream)
     if not args.out.parent.is_dir():
         raise FileNotFoundError(f"{args.out.parent}: output folder does not exist")
     save_stream(stream, args.out)

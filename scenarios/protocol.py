@@ -1,9 +1,10 @@
 """The experiment protocol: one run from a seed, many runs in parallel, and ``reproduce``.
 
 Seeding follows Gymnasium: one integer seed becomes ``np.random.SeedSequence(seed)``, spawned
-into three generators (task stream, world, allocator). The stream depends on the seed only, so
-every allocator and cost model of a comparison sees the very same tasks. A run's result
-depends on its spec only, never on the process, worker or order it ran in.
+into three generators (task stream, world, allocator) by :func:`learning.seeding.run_generators`.
+The stream depends on the seed only, so every allocator and cost model of a comparison sees the
+very same tasks. A run's result depends on its spec only, never on the process, worker or order
+it ran in.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from learning.checkpoint import (
     save_checkpoint,
 )
 from learning.episode import record_arrays, record_from_arrays, run_protocol
+from learning.seeding import run_generators
 from scenarios.loader import load_scenario
 from scenarios.metrics import (
     completion_table,
@@ -95,17 +97,17 @@ def build_run(spec: RunSpec):
     """Scenario, stream, world, cost model, allocator and rngs of a spec, ready to play."""
     scenario = apply_overrides(_load(spec.scenario), spec.overrides)
     check_cost(scenario, spec.cost)
-    stream_ss, world_ss, alloc_ss = np.random.SeedSequence(spec.seed).spawn(3)
+    rngs = run_generators(spec.seed)
     if spec.stream_file:
         stream = load_stream(Path(spec.stream_file))
         check_stream(scenario, stream, spec.stream_file)
     else:
-        stream = generate_stream(scenario, np.random.default_rng(stream_ss))
+        stream = generate_stream(scenario, rngs.stream)
     world = make_world(scenario)
     cost = make_cost_model(spec.cost, scenario, getattr(world, "planner", None))
     allocator = ALLOCATORS[spec.allocator](scenario)
-    allocator.reset(np.random.default_rng(alloc_ss))
-    return scenario, stream, world, cost, allocator, np.random.default_rng(world_ss)
+    allocator.reset(rngs.allocator)
+    return scenario, stream, world, cost, allocator, rngs.world
 
 
 def check_stream(scenario: Scenario, stream: TaskStream, where: str) -> None:

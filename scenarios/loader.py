@@ -52,7 +52,7 @@ def resolve(name_or_path: str | Path) -> Path:
     data = resources.files("scenarios") / "data" / f"{text}.toml"
     if not data.is_file():
         names = bundled_names()
-        hint = _did_you_mean(text, names)
+        hint = did_you_mean(text, names)
         raise ScenarioError(
             f"{text}: no such scenario file or bundled scenario{hint} (bundled: {', '.join(names)})"
         )
@@ -84,7 +84,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str = "") -> Scenario:
     """Validate a parsed TOML document and build the Scenario."""
-    v = _Validator(source)
+    v = Validator(source)
     v.keys(doc, "", {"scenario", "robots", "stream", "learning", "experience", "spatial"})
     head = v.table(doc, "scenario", required=True)
     v.keys(head, "scenario", {"name", "description", "task_types", "exec_time_s"})
@@ -113,7 +113,7 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
         caps = v.str_list(rd, f"{where}.capabilities", min_len=1, max_len=len(types))
         for c in caps:
             if c not in types:
-                v.fail(f"{where}.capabilities", f"unknown task type {c!r}{_did_you_mean(c, types)}")
+                v.fail(f"{where}.capabilities", f"unknown task type {c!r}{did_you_mean(c, types)}")
         if len(set(caps)) != len(caps):
             v.fail(f"{where}.capabilities", "a task type is listed twice")
         cost = v.table(rd, "cost", required=True, where=f"{where}.cost")
@@ -176,7 +176,7 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
     v.check(e.n_min >= 1, "experience.n_min", "must be at least 1")
     v.check(e.coverage_k >= 1, "experience.coverage_k", "must be at least 1")
     if e.refusal not in REFUSAL_RULES:
-        hint = _did_you_mean(e.refusal, REFUSAL_RULES)
+        hint = did_you_mean(e.refusal, REFUSAL_RULES)
         v.fail(
             "experience.refusal", f"unknown rule {e.refusal!r}{hint}; one of {list(REFUSAL_RULES)}"
         )
@@ -201,14 +201,14 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
     )
 
 
-def _did_you_mean(word: str, options) -> str:
+def did_you_mean(word: str, options) -> str:
     """' (did you mean 'x'?)' for the closest option, ignoring case; '' if none is close."""
     lower = {str(o).lower(): o for o in options}
     close = difflib.get_close_matches(word.lower(), list(lower), n=1, cutoff=0.6)
     return f" (did you mean {lower[close[0]]!r}?)" if close else ""
 
 
-class _Validator:
+class Validator:
     """Small helpers that raise ScenarioError('source: path: problem')."""
 
     def __init__(self, source: str) -> None:
@@ -225,7 +225,7 @@ class _Validator:
         for key in table:
             if key not in allowed:
                 where = f"{path}.{key}" if path else key
-                self.fail(where, f"unknown key{_did_you_mean(key, sorted(allowed))}")
+                self.fail(where, f"unknown key{did_you_mean(key, sorted(allowed))}")
 
     def table(self, doc: dict, key: str, required: bool = False, where: str | None = None) -> dict:
         where = where or key
@@ -333,7 +333,9 @@ def _kind(val: Any) -> str:
 __all__ = [
     "DriveSpec",
     "ScenarioError",
+    "Validator",
     "bundled_names",
+    "did_you_mean",
     "load_scenario",
     "parse_scenario",
     "resolve",

@@ -37,26 +37,46 @@ class ScenarioError(ValueError):
     """A scenario that cannot be used; ``str(err)`` is one line: 'file: key.path: problem'."""
 
 
-def bundled_names() -> list[str]:
-    """Names of the scenarios shipped with the package (``mrta ... --scenario NAME``)."""
-    data = resources.files("scenarios") / "data"
+def bundled_toml(folder: str = "") -> list[str]:
+    """Names (without ``.toml``) of the TOML files shipped in ``scenarios/data/<folder>``."""
+    data = _data(folder)
+    if not data.is_dir():
+        return []
     return sorted(p.name.removesuffix(".toml") for p in data.iterdir() if p.name.endswith(".toml"))
 
 
-def resolve(name_or_path: str | Path) -> Path:
-    """A bundled scenario by name, or a file by path."""
+def locate(name_or_path: str | Path, folder: str = "") -> Path | None:
+    """A path as given (it ends in .toml, exists or has a '/'), else the bundled file of that
+    name in ``scenarios/data/<folder>``; None when there is no such bundled file."""
     text = str(name_or_path)
     candidate = Path(text)
     if candidate.suffix == ".toml" or candidate.exists() or "/" in text:
         return candidate
-    data = resources.files("scenarios") / "data" / f"{text}.toml"
-    if not data.is_file():
+    bundled = _data(folder) / f"{text}.toml"
+    return Path(str(bundled)) if bundled.is_file() else None
+
+
+def _data(folder: str):
+    data = resources.files("scenarios") / "data"
+    return data / folder if folder else data
+
+
+def bundled_names() -> list[str]:
+    """Names of the scenarios shipped with the package (``mrta ... --scenario NAME``)."""
+    return bundled_toml()
+
+
+def resolve(name_or_path: str | Path) -> Path:
+    """A bundled scenario by name, or a file by path."""
+    path = locate(name_or_path)
+    if path is None:
         names = bundled_names()
-        hint = did_you_mean(text, names)
+        hint = did_you_mean(str(name_or_path), names)
         raise ScenarioError(
-            f"{text}: no such scenario file or bundled scenario{hint} (bundled: {', '.join(names)})"
+            f"{name_or_path}: no such scenario file or bundled scenario{hint} "
+            f"(bundled: {', '.join(names)})"
         )
-    return Path(str(data))
+    return path
 
 
 def read_toml(path: Path) -> tuple[dict[str, Any], bytes]:
@@ -335,8 +355,10 @@ __all__ = [
     "ScenarioError",
     "Validator",
     "bundled_names",
+    "bundled_toml",
     "did_you_mean",
     "load_scenario",
+    "locate",
     "parse_scenario",
     "resolve",
 ]

@@ -15,14 +15,21 @@ import itertools
 import math
 import tomllib
 from dataclasses import dataclass, fields
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from allocation.costs import COST_MODELS
 from learning import ALLOCATORS
 from scenarios.experiments.protocol import OVERRIDABLE, RunSpec
-from scenarios.loader import ScenarioError, did_you_mean, parse_scenario, read_toml, resolve
+from scenarios.loader import (
+    ScenarioError,
+    bundled_toml,
+    did_you_mean,
+    locate,
+    parse_scenario,
+    read_toml,
+    resolve,
+)
 from scenarios.sweep.columns import METRIC_COLUMNS
 from sim.scenario import ExperienceSpec, LearningSpec, StreamSpec
 
@@ -106,22 +113,15 @@ def fmt_value(value: Value) -> str:
 
 def bundled_sweeps() -> list[str]:
     """Names of the example sweeps shipped in ``scenarios/data/sweeps``."""
-    data = resources.files("scenarios") / "data" / "sweeps"
-    if not data.is_dir():
-        return []
-    return sorted(p.name.removesuffix(".toml") for p in data.iterdir() if p.name.endswith(".toml"))
+    return bundled_toml("sweeps")
 
 
 def _resolve_sweep(name_or_path: str | Path) -> Path:
-    text = str(name_or_path)
-    path = Path(text)
-    if path.suffix == ".toml" or path.exists() or "/" in text:
-        return path
-    bundled = resources.files("scenarios") / "data" / "sweeps" / f"{text}.toml"
-    if bundled.is_file():
-        return Path(str(bundled))
-    hint = did_you_mean(text, bundled_sweeps())
-    raise ScenarioError(f"{text}: no such sweep file or bundled sweep{hint}")
+    path = locate(name_or_path, "sweeps")
+    if path is None:
+        hint = did_you_mean(str(name_or_path), bundled_sweeps())
+        raise ScenarioError(f"{name_or_path}: no such sweep file or bundled sweep{hint}")
+    return path
 
 
 def load_sweep(name_or_path: str | Path) -> SweepSpec:

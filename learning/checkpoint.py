@@ -43,13 +43,14 @@ def allocator_arrays(allocator) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     meta: dict[str, Any] = {"allocator": allocator.name}
     if not allocator.learns:
         return arrays, meta
-    for j, table in enumerate(allocator.tables_):
+    learner = allocator.learner_
+    for j, table in enumerate(learner.tables_):
         arrays[f"q/{j}"] = table.q_
         arrays[f"alphabet/{j}"] = np.asarray(table.alphabet_, dtype=np.int64)
         arrays[f"recent/{j}"] = np.asarray(table.recent_, dtype=np.int64)
-    meta["epsilon"] = allocator.epsilon_
-    meta["learning_sets_seen"] = allocator.learning_sets_seen_
-    meta["rng_state"] = allocator.rng_.bit_generator.state
+    meta["epsilon"] = learner.epsilon_
+    meta["learning_sets_seen"] = learner.learning_sets_seen_
+    meta["rng_state"] = learner.rng_.bit_generator.state
     if hasattr(allocator, "experience_"):
         for name in EXPERIENCE_ARRAYS:
             arrays[f"exp/{name}"] = getattr(allocator.experience_, name)
@@ -66,9 +67,10 @@ def restore_allocator(allocator, arrays: dict[str, np.ndarray], meta: dict[str, 
         )
     if not allocator.learns:
         return
-    h = allocator.learn.history
+    learner = allocator.learner_
+    h = learner.spec.history
     tables = []
-    for j in range(len(allocator.tables_)):
+    for j in range(len(learner.tables_)):
         table = HistoryQTable(arrays[f"alphabet/{j}"].tolist(), h)
         q = arrays[f"q/{j}"]
         if q.shape != table.q_.shape:
@@ -78,10 +80,10 @@ def restore_allocator(allocator, arrays: dict[str, np.ndarray], meta: dict[str, 
         table.q_ = q.astype(float).copy()
         table.recent_ = arrays[f"recent/{j}"].tolist()
         tables.append(table)
-    allocator.tables_ = tables
-    allocator.epsilon_ = float(meta["epsilon"])
-    allocator.learning_sets_seen_ = int(meta["learning_sets_seen"])
-    allocator.rng_.bit_generator.state = meta["rng_state"]
+    learner.tables_ = tables
+    learner.epsilon_ = float(meta["epsilon"])
+    learner.learning_sets_seen_ = int(meta["learning_sets_seen"])
+    learner.rng_.bit_generator.state = meta["rng_state"]
     if hasattr(allocator, "experience_"):
         for name in EXPERIENCE_ARRAYS:
             setattr(allocator.experience_, name, arrays[f"exp/{name}"].copy())

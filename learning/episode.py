@@ -1,5 +1,8 @@
 """The experiment loop: world -> snapshot -> cost model -> allocator -> world, round by round.
 
+Every round is played by :func:`learning.rounds.play_round`; here ``decide`` is the allocator,
+with the round's invariants checked and its lost tasks counted by cause.
+
 The paper protocol (SPEC §1) is two phases over one stream: the learning sets are played with
 exploration and learning on, then the test sets are played greedily with everything learned
 frozen. Completion ratios are measured on the test phase only. Invariants are checked every
@@ -14,9 +17,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from allocation.costs import CostModel
+from learning.rounds import Decide, drain, play_round
 from sim.scenario import Scenario
-from sim.tasks import TaskStream
-from sim.world import Completion, World
+from sim.tasks import Batch, TaskStream
+from sim.world import Completion, World, WorldState
 
 
 class InvariantError(RuntimeError):
@@ -34,7 +38,10 @@ LOSS_CAUSES = ("no_capable_free", "capable_taken", "refused", "waited")
 
 
 def loss_causes(
-    lost_types: np.ndarray, free: np.ndarray, taken: np.ndarray, capable: np.ndarray,
+    lost_types: np.ndarray,
+    free: np.ndarray,
+    taken: np.ndarray,
+    capable: np.ndarray,
     willing: np.ndarray,
 ) -> np.ndarray:
     """Counts of :data:`LOSS_CAUSES` over lost tasks of the given types (one round).
@@ -147,45 +154,24 @@ def run_protocol(
         if pi < start_phase:
             continue
         phase = record.learn if phase_name == "learn" else record.test
+        decide = _checked(allocator, capable, phase.lost_causes)
         for pos, s in enumerate(set_indices):
             if pi == start_phase and pos < start_pos:
                 continue
             allocator.begin_set(s, learning=phase_name == "learn")
             ids, assigned, bids, done = [], [], [], []
             for batch in stream.batches(s):
-                state = world.snapshot()
-                allowed = allocator.allowed().copy()
-                willing = allocator.willing().copy()
-                costs = cost_model.costs(state, batch)
-                assignment, bid_matrix = allocator.allocate(state, batch, costs)
-                _check_assignment(assignment, bid_matrix, batch, state.free, allowed, capable)
-                won = assignment >= 0
-                if not won.all():
-                    taken = np.zeros(state.free.size, dtype=bool)
-                    taken[assignment[won]] = True
-                    phase.lost_causes += loss_causes(
-                        batch.types[~won], state.free, taken, capable, willing
-                    )
-                won_bid = np.full(len(batch), np.nan)
-                won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
-                world.apply(batch, assignment, won_bid)
+                played = play_round(world, batch, cost_model, decide, interval, recorder)
                 ids.append(batch.ids)
-                assigned.append(assignment)
-                bids.append(won_bid)
-                ended = world.advance(interval)
-                if recorder is not None:
-                    _record_round(recorder, state.time_s, batch, assignment, ended)
-                done.extend(ended)
+                assigned.append(played.assignment)
+                bids.append(played.won_bid)
+                done.extend(played.done)
                 rounds += 1
                 if trace:
                     _trace(record, allocator, rounds)
                 if on_round is not None:
                     on_round()
-            ended = world.drain()
-            if recorder is not None:
-                for c in ended:
-                    recorder.done(c.task_id, c.t_done_s)
-            done.extend(ended)
+            done.extend(drain(world, recorder))
             allocator.end_set()
             _check_set(phase_name, s, ids, assigned, done, allocator, scenario)
             if keep:
@@ -204,11 +190,23 @@ def run_protocol(
     return record
 
 
-def _record_round(recorder, t_s: float, batch, assignment, done: list[Completion]) -> None:
-    recorder.announce(t_s, batch.ids, batch.types, batch.high, batch.sites)
-    recorder.allocate(t_s, batch.ids, assignment)
-    for c in done:
-        recorder.done(c.task_id, c.t_done_s)
+def _checked(allocator, capable: np.ndarray, lost_causes: np.ndarray) -> Decide:
+    """The allocator's decision with the round's invariants checked and its losses counted
+    (into ``lost_causes``, in place)."""
+
+    def decide(state: WorldState, batch: Batch, costs: np.ndarray):
+        allowed = allocator.allowed().copy()
+        willing = allocator.willing().copy()
+        assignment, bids = allocator.allocate(state, batch, costs)
+        _check_assignment(assignment, bids, batch, state.free, allowed, capable)
+        won = assignment >= 0
+        if not won.all():
+            taken = np.zeros(state.free.size, dtype=bool)
+            taken[assignment[won]] = True
+            lost_causes[:] += loss_causes(batch.types[~won], state.free, taken, capable, willing)
+        return assignment, bids
+
+    return decide
 
 
 def _trace(record: RunRecord, allocator, rounds: int) -> None:

@@ -82,7 +82,7 @@ class ExpTAllocator(QLAllocator):
         return u if action == DO else 1.0 / u
 
     def _after_auction(self, batch: Batch, bids: np.ndarray, assignment: np.ndarray) -> None:
-        if not self.learning_:
+        if not self.learner_.learning_:
             return
         for t in range(len(batch)):
             bidders = np.flatnonzero(np.isfinite(bids[:, t]))
@@ -91,16 +91,7 @@ class ExpTAllocator(QLAllocator):
 
     def _restructure(self) -> None:
         for j, i in self.experience_.refusals():
-            old = self.tables_[j]
-            new = old.without(i)
-            pend = self.pending_[j]
-            if pend is not None:
-                kept = old.decode(np.array([pend.state]))[0]
-                if i in kept or not new.alphabet_:
-                    self.pending_[j] = None
-                else:
-                    pend.state = new.encode(kept)
-            self.tables_[j] = new
+            self.learner_.drop_type(j, i)
             self.refusal_log_.append((self.auctions_, j, i))
 
     def experience_snapshot(self) -> tuple[np.ndarray, np.ndarray]:

@@ -18,6 +18,7 @@ this env shares with the PettingZoo env (:mod:`learning.pz_env`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -26,11 +27,15 @@ from gymnasium import spaces
 
 from allocation.auction import solve_priority_assignment
 from allocation.costs import make_cost_model
+from learning.episode import protocol_sets
 from learning.experience import ExperienceModel
+from learning.rounds import drain, play_round
+from learning.seeding import run_generators
 from sim import make_world
 from sim.recording import TrajectoryRecorder
 from sim.scenario import Scenario
 from sim.tasks import Batch, generate_stream
+from sim.world import WorldState
 
 MAX_SLOTS = 7
 BUSY_CAP_S = 1.0e6  # observation bound on seconds of work left (clipped)
@@ -39,11 +44,9 @@ SET_CHOICES = ("all", "learn", "test", "protocol")
 
 def set_order(scenario: Scenario, sets: str) -> list[int]:
     """Zero-based set indices an episode plays: all, learn, test, or protocol (learn then test)."""
-    s = scenario.stream
-    learn, test = list(range(s.learn_sets)), list(scenario.test_set_indices())
-    return {"all": list(range(s.n_sets)), "learn": learn, "test": test, "protocol": learn + test}[
-        sets
-    ]
+    learn, test = protocol_sets(scenario)
+    everything = list(range(scenario.stream.n_sets))
+    return {"all": everything, "learn": learn, "test": test, "protocol": learn + test}[sets]
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,9 +94,9 @@ class AllocationRounds:
 
     def _start(self, run_seed: int, sets: str | None = None) -> None:
         """Draw the stream of ``run_seed`` and stand before its first round."""
-        stream_ss, world_ss, _ = np.random.SeedSequence(run_seed).spawn(3)
-        self.stream_ = generate_stream(self.scenario, np.random.default_rng(stream_ss))
-        self.world.reset(np.random.default_rng(world_ss))
+        rngs = run_generators(run_seed)
+        self.stream_ = generate_stream(self.scenario, rngs.stream)
+        self.world.reset(rngs.world)
         if self.render_mode == "rgb_array" and self.scenario.spatial is not None:
             self.recorder_ = TrajectoryRecorder.for_scenario(self.scenario)
             self.world.recorder = self.recorder_
@@ -116,32 +119,37 @@ class AllocationRounds:
     def _play(self, action: np.ndarray) -> tuple[RoundOutcome, bool]:
         """Resolve one round from an (m, k) bool bid matrix; return (outcome, terminated)."""
         batch = self.batch_
-        state = self.world.snapshot()
-        self.busy_low_ &= ~state.free
+        played = play_round(
+            self.world,
+            batch,
+            self.cost_model,
+            partial(self._auction, action),
+            self.scenario.stream.announce_interval_s,
+            self.recorder_,
+        )
+        assignment = played.assignment
+        won = assignment >= 0
+        self.busy_low_ &= ~played.state.free
         busy_low = self.busy_low_.copy()
-        costs = self.cost_model.costs(state, batch)
+        np.add.at(self.announced_, batch.high.astype(int), 1)
+        np.add.at(self.allocated_, batch.high[won].astype(int), 1)
+        self.busy_low_[assignment[won]] = ~batch.high[won]
+        self.last_assignment_ = assignment
+        terminated = not self._next_batch()
+        return RoundOutcome(batch, assignment, played.bids, busy_low), terminated
+
+    def _auction(
+        self, action: np.ndarray, state: WorldState, batch: Batch, costs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The round's ``decide``: the agents' bids (free robots, finite costs) resolved by the
+        market's priority auction; every auction is observed by the experience model."""
         bid = action & state.free[:, None] & np.isfinite(costs)
         assignment = solve_priority_assignment(np.where(bid, costs, np.inf), batch.high)
         for t in range(len(batch)):
             self.experience_.observe_auction(
                 int(batch.types[t]), np.flatnonzero(bid[:, t]), int(assignment[t])
             )
-        won = assignment >= 0
-        np.add.at(self.announced_, batch.high.astype(int), 1)
-        np.add.at(self.allocated_, batch.high[won].astype(int), 1)
-        won_bid = np.full(len(batch), np.nan)
-        won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
-        self.world.apply(batch, assignment, won_bid)
-        self.busy_low_[assignment[won]] = ~batch.high[won]
-        done = self.world.advance(self.scenario.stream.announce_interval_s)
-        if self.recorder_ is not None:
-            self.recorder_.announce(state.time_s, batch.ids, batch.types, batch.high, batch.sites)
-            self.recorder_.allocate(state.time_s, batch.ids, assignment)
-            for c in done:
-                self.recorder_.done(c.task_id, c.t_done_s)
-        self.last_assignment_ = assignment
-        terminated = not self._next_batch()
-        return RoundOutcome(batch, assignment, bid, busy_low), terminated
+        return assignment, bid
 
     def _next_batch(self) -> bool:
         """Advance to the next non-empty round; drain the world between sets."""
@@ -156,9 +164,7 @@ class AllocationRounds:
         return False
 
     def _drain(self) -> None:
-        for c in self.world.drain():
-            if self.recorder_ is not None:
-                self.recorder_.done(c.task_id, c.t_done_s)
+        drain(self.world, self.recorder_)
 
     def _slots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(type, high, valid) of the current batch, padded to ``MAX_SLOTS``."""

@@ -1,6 +1,6 @@
 """QL-MRTA learners trained through the PettingZoo env: a worked multi-agent example.
 
-Every robot is an independent tabular learner (:class:`learning.qtable.HistoryQTable`) that
+Every robot is an independent tabular learner (:class:`learning.learner.QLearners`) that
 sees only its own observation: the announced tasks it can do, whether it is free, and its own
 reward. It follows QL-MRTA exactly (:mod:`learning.qlmrta`): it always bids on high-priority
 tasks, chooses ``do`` (bid) or ``wait`` epsilon-greedily on low-priority ones while free, and
@@ -20,65 +20,49 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from learning.qtable import DO, WAIT, HistoryQTable
+from learning.learner import Decision, QLearners
+from learning.qtable import DO, WAIT
+from learning.seeding import run_generators
 from sim.scenario import Scenario
 
 
-@dataclass(slots=True)
-class _Open:
-    """A decision whose reward is still accruing."""
-
-    state: int
-    action: int
-    reward: float = 0.0
-
-
 class QLTeam:
-    """One QL-MRTA learner per robot, acting on PettingZoo observations (agent name -> obs)."""
+    """One QL-MRTA learner per robot, acting on PettingZoo observations (agent name -> obs).
+
+    The learners are one :class:`learning.learner.QLearners` (``learner_``), the very class
+    the built-in ``ql`` allocator learns with; the team only reads observations and rewards.
+    """
 
     def __init__(self, scenario: Scenario, rng: np.random.Generator) -> None:
         self.scenario = scenario
-        self.learn = scenario.learning
-        self.rng_ = rng
-        capable = scenario.capability_matrix()
         self.agents = [r.name for r in scenario.robots]
-        self.tables_ = [HistoryQTable(np.flatnonzero(row), self.learn.history) for row in capable]
-        self.pending_: list[_Open | None] = [None] * len(self.agents)
-        self.learning_ = True
-        self.epsilon_ = self.learn.epsilon_start
-        self.learning_sets_seen_ = 0
+        self.learner_ = QLearners(scenario.capability_matrix(), scenario.learning)
+        self.learner_.reset(rng)
         self.decisions_ = np.zeros(2, dtype=np.int64)  # do, wait (counted in every phase)
         self._round: list[list[tuple[int, int, int]]] = []
 
     def begin_set(self, learning: bool) -> None:
         """Start a set; epsilon decays once per learning set."""
-        self.learning_ = learning
-        if learning:
-            decayed = self.learn.epsilon_start * self.learn.epsilon_decay**self.learning_sets_seen_
-            self.epsilon_ = max(self.learn.epsilon_end, decayed)
-            self.learning_sets_seen_ += 1
+        self.learner_.begin_set(learning)
 
     def end_set(self) -> None:
         """Close every open decision as terminal: the set is an episode."""
-        for j, pend in enumerate(self.pending_):
-            if pend is not None and self.learning_:
-                self._update(j, pend, target=0.0)
-            self.pending_[j] = None
+        self.learner_.end_set()
 
     def act(self, obs: dict[str, dict]) -> dict[str, np.ndarray]:
         """Bids for this round: high-priority slots always, low ones as the Q-table says."""
         actions, self._round = {}, []
+        learner = self.learner_
         for j, agent in enumerate(self.agents):
-            o, table = obs[agent], self.tables_[j]
+            o = obs[agent]
             action = np.zeros(len(o["task_valid"]), dtype=np.int8)
             decided = []
             for t in np.flatnonzero(o["task_valid"]):
-                table.push(int(o["task_type"][t]))
+                learner.push(j, int(o["task_type"][t]))
                 if not o["free"]:
                     continue
                 if not o["task_high"][t]:
-                    s = table.state()
-                    a = self._choose(table, s)
+                    s, a = learner.decide(j)
                     self.decisions_[a] += 1
                     decided.append((s, a, int(t)))
                     if a == WAIT:
@@ -90,25 +74,14 @@ class QLTeam:
 
     def observe(self, rewards: dict[str, float], infos: dict[str, dict]) -> None:
         """Learn from one step: open this round's decisions (the won one last), credit rewards."""
-        if not self.learning_:
+        learner = self.learner_
+        if not learner.learning_:
             return
         for j, agent in enumerate(self.agents):
             won = infos[agent]["won"]
             for s, a, _slot in sorted(self._round[j], key=lambda d: d[2] == won):
-                old = self.pending_[j]
-                if old is not None:
-                    self._update(j, old, self.learn.gamma * float(self.tables_[j].q_[s].max()))
-                self.pending_[j] = _Open(s, a)
-            if self.pending_[j] is not None:
-                self.pending_[j].reward += rewards[agent]
-
-    def _choose(self, table: HistoryQTable, s: int) -> int:
-        if self.learning_ and self.rng_.random() < self.epsilon_:
-            return int(self.rng_.integers(2))
-        return table.greedy(s)
-
-    def _update(self, j: int, pend: _Open, target: float) -> None:
-        self.tables_[j].update(pend.state, pend.action, pend.reward, target, self.learn.alpha)
+                learner.open(j, Decision(s, a), next_state=s)
+            learner.credit(j, rewards[agent])
 
 
 @dataclass
@@ -139,7 +112,7 @@ def play_protocol(env, seed: int, learn: bool = True) -> ProtocolResult:
         raise ValueError(f"play_protocol needs an env built with sets='protocol', not {env.sets!r}")
     sc = env.scenario
     n_learn = sc.stream.learn_sets
-    team = QLTeam(sc, np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2]))
+    team = QLTeam(sc, run_generators(seed).allocator)
     obs, infos = env.reset(seed=seed)
     position, at_test, test_start = -1, None, None
     while env.agents:
@@ -166,5 +139,5 @@ def play_protocol(env, seed: int, learn: bool = True) -> ProtocolResult:
         allocated,
         completion,
         {"do": int(test[DO]), "wait": int(test[WAIT])},
-        int(sum(np.count_nonzero(t.q_) for t in team.tables_)),
+        int(sum(np.count_nonzero(t.q_) for t in team.learner_.tables_)),
     )

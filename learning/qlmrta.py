@@ -18,30 +18,23 @@ high task the robot could have done is lost is a net loss (1 - 5 < 0).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from allocation.auction import solve_priority_assignment
-from learning.qtable import DO, WAIT, HistoryQTable, space_size
+from learning.learner import Decision, QLearners
+from learning.qtable import DO, WAIT, space_size
 from sim.scenario import Scenario
 from sim.tasks import Batch
 from sim.world import WorldState
 
 
-@dataclass(slots=True)
-class _Pending:
-    """A decision whose reward is still accruing."""
-
-    state: int
-    action: int
-    task_type: int
-    reward: float
-    reward_scale: float  # ExpT eq. (9) factor fixed at decision time (1 for QL-MRTA)
-
-
 class QLAllocator:
-    """QL-MRTA: independent tabular Q-learners deciding do/wait on low-priority tasks."""
+    """QL-MRTA: independent tabular Q-learners deciding do/wait on low-priority tasks.
+
+    The learners (tables, open decisions, epsilon schedule, exploration generator) are one
+    :class:`learning.learner.QLearners`, ``learner_``; the allocator turns their decisions into
+    bids, runs the auction and credits the rewards.
+    """
 
     name = "ql"
     learns = True
@@ -55,30 +48,18 @@ class QLAllocator:
     # -- lifecycle ---------------------------------------------------------------------------
     def reset(self, rng: np.random.Generator) -> None:
         """Forget everything; ``rng`` drives exploration."""
-        self.rng_ = rng
-        h = self.learn.history
-        self.tables_ = [HistoryQTable(np.flatnonzero(row), h) for row in self.capable]
-        self.pending_: list[_Pending | None] = [None] * self.scenario.n_robots
+        self.learner_ = QLearners(self.capable, self.learn)
+        self.learner_.reset(rng)
         self.busy_low_ = np.zeros(self.scenario.n_robots, dtype=bool)
-        self.learning_ = True
-        self.epsilon_ = self.learn.epsilon_start
-        self.learning_sets_seen_ = 0
         self.initial_space_ = self.learning_space()
 
     def begin_set(self, set_index: int, learning: bool) -> None:
-        self.learning_ = learning
-        if learning:
-            decayed = self.learn.epsilon_start * self.learn.epsilon_decay**self.learning_sets_seen_
-            self.epsilon_ = max(self.learn.epsilon_end, decayed)
-            self.learning_sets_seen_ += 1
+        self.learner_.begin_set(learning)
         self.busy_low_[:] = False
 
     def end_set(self) -> None:
         """Close every open decision as terminal: the set is an episode."""
-        for j, pend in enumerate(self.pending_):
-            if pend is not None and self.learning_:
-                self._close(j, pend, target=0.0)
-            self.pending_[j] = None
+        self.learner_.end_set()
         self.busy_low_[:] = False
 
     # -- what the robots may do --------------------------------------------------------------
@@ -92,7 +73,7 @@ class QLAllocator:
 
     def learning_space(self) -> np.ndarray:
         """Per-robot learning-space dimension 2 * n_j**h for the current alphabets."""
-        return np.array([t.size for t in self.tables_], dtype=np.int64)
+        return self.learner_.learning_space()
 
     # -- hooks ExpT-MRTA overrides -----------------------------------------------------------
     def _bid_divisor(self) -> np.ndarray:
@@ -123,77 +104,58 @@ class QLAllocator:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Decide, bid, run the auction and learn from it; return (assignment, bids)."""
         self.busy_low_ &= ~state.free
+        learner = self.learner_
         willing = self.willing()
         divisor = self._bid_divisor()
         m, k = costs.shape
         bids = np.full((m, k), np.inf)
-        decisions: list[list[tuple[int, int, int, int, float]]] = [[] for _ in range(m)]
+        decisions: list[list[tuple[int, int, int, float]]] = [[] for _ in range(m)]
         for j in range(m):
-            table = self.tables_[j]
             for t in range(k):
                 i = int(batch.types[t])
                 if not willing[j, i]:
                     continue
-                table.push(i)
+                learner.push(j, i)
                 if not state.free[j]:
                     continue
                 if not batch.high[t]:
-                    s = table.state()
-                    a = self._choose(table, s)
-                    decisions[j].append((s, a, t, i, self._reward_scale(j, i, a)))
+                    s, a = learner.decide(j)
+                    decisions[j].append((s, a, t, self._reward_scale(j, i, a)))
                     if a == WAIT:
                         continue
                 bids[j, t] = costs[j, t] / divisor[j, i]
         assignment = solve_priority_assignment(bids, batch.high)
         self._after_auction(batch, bids, assignment)
-        if self.learning_:
+        if learner.learning_:
             self._learn(batch, assignment, decisions, willing)
         primary = assignment.copy()
         self._second_round(state, batch, costs, assignment, bids)
-        if self.learning_:
+        if learner.learning_:
             self._restructure()
         self._mark_busy(batch, primary)
         return assignment, bids
-
-    def _choose(self, table: HistoryQTable, s: int) -> int:
-        if self.learning_ and self.rng_.random() < self.epsilon_:
-            return int(self.rng_.integers(2))
-        return table.greedy(s)
 
     def _mark_busy(self, batch: Batch, assignment: np.ndarray) -> None:
         for t in np.flatnonzero(assignment >= 0):
             self.busy_low_[assignment[t]] = not batch.high[t]
 
     def _learn(self, batch: Batch, assignment: np.ndarray, decisions, willing: np.ndarray) -> None:
-        p = self.learn
+        p, learner = self.learn, self.learner_
         lost_high_types = batch.types[(assignment < 0) & batch.high]
         for i in lost_high_types:
             for j in np.flatnonzero(self.busy_low_ & willing[:, i]):
-                if self.pending_[j] is not None:
-                    self.pending_[j].reward -= p.penalty_lost_high
+                learner.credit(j, -p.penalty_lost_high)
         won = {int(assignment[t]): t for t in np.flatnonzero(assignment >= 0)}
         for j, decs in enumerate(decisions):
             t_won = won.get(j, -1)
             decs.sort(key=lambda d: d[2] == t_won)  # the decision that won goes last, stays open
-            for s, a, t, i, scale in decs:
-                self._open(j, _Pending(s, a, i, 0.0, scale), next_state=s)
+            for s, a, t, scale in decs:
+                learner.open(j, Decision(s, a, 0.0, scale), next_state=s)
                 if a == DO and t == t_won:
-                    self.pending_[j].reward += p.reward_low
+                    learner.credit(j, p.reward_low)
         for j, t in won.items():
-            if batch.high[t] and self.pending_[j] is not None:
-                self.pending_[j].reward += p.reward_high
-
-    def _open(self, j: int, new: _Pending, next_state: int) -> None:
-        old = self.pending_[j]
-        if old is not None:
-            target = self.learn.gamma * float(self.tables_[j].q_[next_state].max())
-            self._close(j, old, target)
-        self.pending_[j] = new
-
-    def _close(self, j: int, pend: _Pending, target: float) -> None:
-        self.tables_[j].update(
-            pend.state, pend.action, pend.reward * pend.reward_scale, target, self.learn.alpha
-        )
+            if batch.high[t]:
+                learner.credit(j, p.reward_high)
 
     # -- reporting ---------------------------------------------------------------------------
     def experience_snapshot(self) -> tuple[np.ndarray, np.ndarray] | None:

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from learning.gym_env import AllocationEnv
+from scenarios.experiments.protocol import check_cost
 from scenarios.loader import load_scenario
-from scenarios.protocol import check_cost
 from sim.scenario import Scenario
 
 

@@ -37,26 +37,46 @@ class ScenarioError(ValueError):
     """A scenario that cannot be used; ``str(err)`` is one line: 'file: key.path: problem'."""
 
 
-def bundled_names() -> list[str]:
-    """Names of the scenarios shipped with the package (``mrta ... --scenario NAME``)."""
-    data = resources.files("scenarios") / "data"
+def bundled_toml(folder: str = "") -> list[str]:
+    """Names (without ``.toml``) of the TOML files shipped in ``scenarios/data/<folder>``."""
+    data = _data(folder)
+    if not data.is_dir():
+        return []
     return sorted(p.name.removesuffix(".toml") for p in data.iterdir() if p.name.endswith(".toml"))
 
 
-def resolve(name_or_path: str | Path) -> Path:
-    """A bundled scenario by name, or a file by path."""
+def locate(name_or_path: str | Path, folder: str = "") -> Path | None:
+    """A path as given (it ends in .toml, exists or has a '/'), else the bundled file of that
+    name in ``scenarios/data/<folder>``; None when there is no such bundled file."""
     text = str(name_or_path)
     candidate = Path(text)
     if candidate.suffix == ".toml" or candidate.exists() or "/" in text:
         return candidate
-    data = resources.files("scenarios") / "data" / f"{text}.toml"
-    if not data.is_file():
+    bundled = _data(folder) / f"{text}.toml"
+    return Path(str(bundled)) if bundled.is_file() else None
+
+
+def _data(folder: str):
+    data = resources.files("scenarios") / "data"
+    return data / folder if folder else data
+
+
+def bundled_names() -> list[str]:
+    """Names of the scenarios shipped with the package (``mrta ... --scenario NAME``)."""
+    return bundled_toml()
+
+
+def resolve(name_or_path: str | Path) -> Path:
+    """A bundled scenario by name, or a file by path."""
+    path = locate(name_or_path)
+    if path is None:
         names = bundled_names()
-        hint = _did_you_mean(text, names)
+        hint = did_you_mean(str(name_or_path), names)
         raise ScenarioError(
-            f"{text}: no such scenario file or bundled scenario{hint} (bundled: {', '.join(names)})"
+            f"{name_or_path}: no such scenario file or bundled scenario{hint} "
+            f"(bundled: {', '.join(names)})"
         )
-    return Path(str(data))
+    return path
 
 
 def read_toml(path: Path) -> tuple[dict[str, Any], bytes]:
@@ -84,7 +104,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str = "") -> Scenario:
     """Validate a parsed TOML document and build the Scenario."""
-    v = _Validator(source)
+    v = Validator(source)
     v.keys(doc, "", {"scenario", "robots", "stream", "learning", "experience", "spatial"})
     head = v.table(doc, "scenario", required=True)
     v.keys(head, "scenario", {"name", "description", "task_types", "exec_time_s"})
@@ -113,7 +133,7 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
         caps = v.str_list(rd, f"{where}.capabilities", min_len=1, max_len=len(types))
         for c in caps:
             if c not in types:
-                v.fail(f"{where}.capabilities", f"unknown task type {c!r}{_did_you_mean(c, types)}")
+                v.fail(f"{where}.capabilities", f"unknown task type {c!r}{did_you_mean(c, types)}")
         if len(set(caps)) != len(caps):
             v.fail(f"{where}.capabilities", "a task type is listed twice")
         cost = v.table(rd, "cost", required=True, where=f"{where}.cost")
@@ -176,7 +196,7 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
     v.check(e.n_min >= 1, "experience.n_min", "must be at least 1")
     v.check(e.coverage_k >= 1, "experience.coverage_k", "must be at least 1")
     if e.refusal not in REFUSAL_RULES:
-        hint = _did_you_mean(e.refusal, REFUSAL_RULES)
+        hint = did_you_mean(e.refusal, REFUSAL_RULES)
         v.fail(
             "experience.refusal", f"unknown rule {e.refusal!r}{hint}; one of {list(REFUSAL_RULES)}"
         )
@@ -201,14 +221,14 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
     )
 
 
-def _did_you_mean(word: str, options) -> str:
+def did_you_mean(word: str, options) -> str:
     """' (did you mean 'x'?)' for the closest option, ignoring case; '' if none is close."""
     lower = {str(o).lower(): o for o in options}
     close = difflib.get_close_matches(word.lower(), list(lower), n=1, cutoff=0.6)
     return f" (did you mean {lower[close[0]]!r}?)" if close else ""
 
 
-class _Validator:
+class Validator:
     """Small helpers that raise ScenarioError('source: path: problem')."""
 
     def __init__(self, source: str) -> None:
@@ -225,7 +245,7 @@ class _Validator:
         for key in table:
             if key not in allowed:
                 where = f"{path}.{key}" if path else key
-                self.fail(where, f"unknown key{_did_you_mean(key, sorted(allowed))}")
+                self.fail(where, f"unknown key{did_you_mean(key, sorted(allowed))}")
 
     def table(self, doc: dict, key: str, required: bool = False, where: str | None = None) -> dict:
         where = where or key
@@ -333,8 +353,12 @@ def _kind(val: Any) -> str:
 __all__ = [
     "DriveSpec",
     "ScenarioError",
+    "Validator",
     "bundled_names",
+    "bundled_toml",
+    "did_you_mean",
     "load_scenario",
+    "locate",
     "parse_scenario",
     "resolve",
 ]

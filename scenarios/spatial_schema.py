@@ -42,7 +42,7 @@ def parse_spatial(v, doc: dict, types: list[str], robots: list[RobotSpec]) -> Sp
     """Validate ``doc["spatial"]`` and the robots' starts; build the :class:`SpatialSpec`.
 
     Args:
-        v: the loader's ``_Validator`` (its ``fail`` raises ScenarioError).
+        v: the loader's :class:`scenarios.loader.Validator` (its ``fail`` raises ScenarioError).
         doc: the whole parsed TOML document.
         types: task type names, in order.
         robots: the robots parsed so far (their ``start_xy`` may be None).

@@ -10,7 +10,7 @@ import pytest
 from learning import QLAllocator
 from learning.qlmrta import joint_log10
 from learning.qtable import DO, WAIT, HistoryQTable, space_size
-from scenarios.reference import PAPER_TABLE2
+from scenarios.experiments.reference import PAPER_TABLE2
 
 TABLE1 = {  # paper Table 1, typed in again independently of scenarios/data/paper.toml
     "R1": "T1 T3 T4 T6",

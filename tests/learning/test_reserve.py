@@ -34,8 +34,8 @@ def reserve_alloc(tiny):
     alloc = ExpTAllocator(dataclasses.replace(tiny, experience=exp))
     alloc.reset(np.random.default_rng(0))
     alloc.experience_.behaviour_[1, 0] = B2_REFUSED
-    alloc.tables_[1] = alloc.tables_[1].without(0)
-    alloc.learning_ = False  # greedy, frozen: an untrained robot bids (ties go to do)
+    alloc.learner_.tables_[1] = alloc.learner_.tables_[1].without(0)
+    alloc.learner_.learning_ = False  # greedy, frozen: an untrained robot bids (ties go to do)
     return alloc
 
 
@@ -65,7 +65,7 @@ def test_paper_rule_never_uses_a_refused_robot(reserve_alloc, tiny):
     alloc = ExpTAllocator(dataclasses.replace(tiny, experience=exp))
     alloc.reset(np.random.default_rng(0))
     alloc.experience_.behaviour_[1, 0] = B2_REFUSED
-    alloc.tables_[1] = alloc.tables_[1].without(0)
+    alloc.learner_.tables_[1] = alloc.learner_.tables_[1].without(0)
     costs = np.array([[1.0], [5.0], [np.inf]])
     assignment, _ = alloc.allocate(state([0, 1, 1]), batch([0], [0]), costs)
     assert assignment.tolist() == [-1]

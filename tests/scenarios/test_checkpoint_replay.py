@@ -41,10 +41,10 @@ def test_resume_equals_straight_through(tmp_path, monkeypatch):
         if calls["n"] == 12:  # interrupted after 12 learning sets
             raise Stop
 
-    monkeypatch.setattr("scenarios.protocol.save_checkpoint", save_then_stop)
+    monkeypatch.setattr("scenarios.experiments.protocol.save_checkpoint", save_then_stop)
     with pytest.raises(Stop):
         execute(SPEC, checkpoint=broken_ck)
-    monkeypatch.setattr("scenarios.protocol.save_checkpoint", real_save)
+    monkeypatch.setattr("scenarios.experiments.protocol.save_checkpoint", real_save)
     _, meta = q_tables(broken_ck)
     assert (meta["phase"], meta["set_pos"]) == (0, 12)
 
@@ -157,14 +157,14 @@ def test_ctrl_c_stops_cleanly_and_says_where_to_resume(tmp_path, capsys, monkeyp
         if calls["n"] == 5:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr("scenarios.protocol.save_checkpoint", save_then_interrupt)
+    monkeypatch.setattr("scenarios.experiments.protocol.save_checkpoint", save_then_interrupt)
     out = tmp_path / "run"
     code = main(["run", "paper", "--allocator", "ql", "--checkpoint", "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 130
     assert "--resume" in err and err.count("\n") == 1
     assert not (out / "metrics.json").exists()
-    monkeypatch.setattr("scenarios.protocol.save_checkpoint", real)
+    monkeypatch.setattr("scenarios.experiments.protocol.save_checkpoint", real)
     assert main(["run", "paper", "--allocator", "ql", "--resume", "--out", str(out)]) == 0
     straight = tmp_path / "straight"
     assert main(["run", "paper", "--allocator", "ql", "--out", str(straight)]) == 0

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from scenarios.cli import main
-from scenarios.figures import fig_completion, fig_robot_trace
+from scenarios.experiments.figures import fig_completion, fig_robot_trace
 from scenarios.protocol import RunSpec, run_many
 
 
@@ -85,12 +85,12 @@ def test_parallel_equals_serial():
 
 
 def test_tradeoff_points_are_drawn_from_the_data(reproduced):
-    from scenarios.figures import fig_tradeoff
-    from scenarios.reproduce import _tradeoff_point
+    from scenarios.experiments.figures import fig_tradeoff
+    from scenarios.experiments.reproduce import tradeoff_point
 
     _, m = reproduced
     points = m["tradeoff"]["points"]
-    refs = {a: _tradeoff_point(None, m["allocators"][a]) for a in ("market", "ql")}
+    refs = {a: tradeoff_point(None, m["allocators"][a]) for a in ("market", "ql")}
     fig = fig_tradeoff(points, refs)
     line = next(ln for ln in fig.axes[0].get_lines() if ln.get_gid() == "expt")
     assert np.allclose(line.get_xdata(), [p["space"] for p in points])

@@ -9,8 +9,8 @@ import pytest
 from PIL import Image
 
 from scenarios.cli import main
-from scenarios.compare import compare, fig_compare
-from scenarios.soak import soak
+from scenarios.experiments.compare import compare, fig_compare
+from scenarios.experiments.soak import soak
 
 SHORT = (("stream.n_sets", 2), ("stream.learn_sets", 1), ("stream.test_sets", 1))
 
@@ -133,7 +133,7 @@ def test_soak_short():
 
 
 def test_run_figure_is_the_task_table():
-    from scenarios.figures import fig_run_spatial
+    from scenarios.experiments.figures import fig_run_spatial
     from scenarios.protocol import RunSpec, execute
 
     out = execute(RunSpec("paper_spatial", "market", "distance", 0, SHORT), task_table=True)

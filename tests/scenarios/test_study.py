@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 from scenarios.cli import main
-from scenarios.study import analyse, run_study, series_key
-from scenarios.sweep_spec import load_sweep
+from scenarios.sweep.spec import load_sweep
+from scenarios.sweep.study import run_study
+from scenarios.sweep.study_analysis import analyse, series_key
 
 SHORT = """
 [fixed]

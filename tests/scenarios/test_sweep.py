@@ -10,12 +10,14 @@ import sys
 import numpy as np
 import pytest
 
-import scenarios.sweep as sweep_mod
+import scenarios.sweep.runner as sweep_runner
+from scenarios.cli.commands import cmd_sweep
+from scenarios.cli.parser import add_sweep_parser
+from scenarios.experiments.metrics import ci95
 from scenarios.loader import ScenarioError, bundled_names
-from scenarios.metrics import ci95
 from scenarios.protocol import UserError
-from scenarios.sweep import add_parser, cmd_sweep, load_sweep, run_sweep
-from scenarios.sweep_spec import bundled_sweeps
+from scenarios.sweep import load_sweep, run_sweep
+from scenarios.sweep.spec import bundled_sweeps
 
 SHORT = """
 [fixed]
@@ -106,7 +108,7 @@ def test_summary_holds_means_and_ci95_per_combination(local_run):
 
 
 def test_sensitivity_plot_draws_the_summary(local_run):
-    from scenarios.sweep_report import fig_sensitivity
+    from scenarios.sweep.report import fig_sensitivity
 
     rows, folder = local_run
     sw = load_sweep(folder / "abstract.toml")
@@ -142,13 +144,13 @@ def test_resume_runs_only_what_is_missing(local_run, tmp_path, monkeypatch):
     out.mkdir()
     (out / "runs.csv").write_text("".join(kept) + lines[16][:25])  # half + a torn last line
     calls = []
-    real = sweep_mod._run_metrics
+    real = sweep_runner.run_metrics
 
     def counting(spec):
         calls.append(spec)
         return real(spec)
 
-    monkeypatch.setattr(sweep_mod, "_run_metrics", counting)
+    monkeypatch.setattr(sweep_runner, "run_metrics", counting)
     again = run_sweep(folder / "abstract.toml", out, workers=1, progress=False)
     assert len(calls) == 15
     assert {(c.allocator, c.seed) for c in calls} == {("expt", s) for s in range(5)}
@@ -260,7 +262,7 @@ def test_bundled_example_sweeps_validate(name):
 
 def test_cli_entry_points(abstract_file, tmp_path, capsys):
     parser = argparse.ArgumentParser(prog="mrta")
-    add_parser(parser.add_subparsers(dest="command"))
+    add_sweep_parser(parser.add_subparsers(dest="command"))
     args = parser.parse_args(
         ["sweep", str(abstract_file), "--out", str(tmp_path / "cli"), "--workers", "2",
          "--no-progress"]

@@ -1,4 +1,5 @@
-"""Sweep files: strict validation and expansion into run specs (see :mod:`scenarios.sweep`).
+"""Sweep files: strict validation and expansion into run specs (run by
+:mod:`scenarios.sweep.runner`).
 
 Every problem raises :class:`scenarios.loader.ScenarioError` with one line
 ``file: key.path: problem`` (unknown keys get a did-you-mean), before anything runs. Parameter
@@ -14,14 +15,22 @@ import itertools
 import math
 import tomllib
 from dataclasses import dataclass, fields
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from allocation.costs import COST_MODELS
 from learning import ALLOCATORS
-from scenarios.loader import ScenarioError, _did_you_mean, parse_scenario, read_toml, resolve
-from scenarios.protocol import OVERRIDABLE, RunSpec
+from scenarios.experiments.protocol import OVERRIDABLE, RunSpec
+from scenarios.loader import (
+    ScenarioError,
+    bundled_toml,
+    did_you_mean,
+    locate,
+    parse_scenario,
+    read_toml,
+    resolve,
+)
+from scenarios.sweep.columns import METRIC_COLUMNS
 from sim.scenario import ExperienceSpec, LearningSpec, StreamSpec
 
 SECTIONS = {"stream": StreamSpec, "learning": LearningSpec, "experience": ExperienceSpec}
@@ -70,15 +79,11 @@ class SweepSpec:
 
     def columns(self) -> list[str]:
         """Every runs.csv column: the key columns, then the metric columns."""
-        from scenarios.sweep_report import METRIC_COLUMNS
-
         return self.key_columns() + list(METRIC_COLUMNS)
 
     @property
     def metric_columns(self) -> tuple[str, ...]:
-        """The metric columns of runs.csv (:data:`scenarios.sweep_report.METRIC_COLUMNS`)."""
-        from scenarios.sweep_report import METRIC_COLUMNS
-
+        """The metric columns of runs.csv (:data:`scenarios.sweep.columns.METRIC_COLUMNS`)."""
         return METRIC_COLUMNS
 
     def key_row(self, run: SweepRun) -> list[str]:
@@ -108,22 +113,15 @@ def fmt_value(value: Value) -> str:
 
 def bundled_sweeps() -> list[str]:
     """Names of the example sweeps shipped in ``scenarios/data/sweeps``."""
-    data = resources.files("scenarios") / "data" / "sweeps"
-    if not data.is_dir():
-        return []
-    return sorted(p.name.removesuffix(".toml") for p in data.iterdir() if p.name.endswith(".toml"))
+    return bundled_toml("sweeps")
 
 
 def _resolve_sweep(name_or_path: str | Path) -> Path:
-    text = str(name_or_path)
-    path = Path(text)
-    if path.suffix == ".toml" or path.exists() or "/" in text:
-        return path
-    bundled = resources.files("scenarios") / "data" / "sweeps" / f"{text}.toml"
-    if bundled.is_file():
-        return Path(str(bundled))
-    hint = _did_you_mean(text, bundled_sweeps())
-    raise ScenarioError(f"{text}: no such sweep file or bundled sweep{hint}")
+    path = locate(name_or_path, "sweeps")
+    if path is None:
+        hint = did_you_mean(str(name_or_path), bundled_sweeps())
+        raise ScenarioError(f"{name_or_path}: no such sweep file or bundled sweep{hint}")
+    return path
 
 
 def load_sweep(name_or_path: str | Path) -> SweepSpec:
@@ -146,7 +144,7 @@ class _Parser:
         for key in table:
             if key not in allowed:
                 full = f"{where}.{key}" if where else key
-                self.fail(full, f"unknown key{_did_you_mean(key, sorted(allowed))}")
+                self.fail(full, f"unknown key{did_you_mean(key, sorted(allowed))}")
 
     def names(
         self, table: dict, key: str, choices, default=None, where: str = "sweep"
@@ -163,7 +161,7 @@ class _Parser:
             self.fail(where, "lists a name twice")
         for i, v in enumerate(val):
             if choices is not None and v not in choices:
-                hint = _did_you_mean(v, choices)
+                hint = did_you_mean(v, choices)
                 self.fail(
                     f"{where}[{i}]", f"unknown {key[:-1]} {v!r}{hint}; one of {sorted(choices)}"
                 )
@@ -221,10 +219,10 @@ class _Parser:
             if key not in PARAMETERS:
                 section = key.partition(".")[0]
                 if section not in SECTIONS:
-                    hint = _did_you_mean(key, list(PARAMETERS))
+                    hint = did_you_mean(key, list(PARAMETERS))
                     hint = hint or f" (sections: {', '.join(SECTIONS)})"
                 else:
-                    hint = _did_you_mean(key, list(PARAMETERS))
+                    hint = did_you_mean(key, list(PARAMETERS))
                 self.fail(f"{where}.{key}", f"unknown parameter{hint}")
         return flat
 

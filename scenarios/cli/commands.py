@@ -1,17 +1,13 @@
-"""The ``mrta`` command line.
+"""The ``mrta`` subcommands: each reads its parsed arguments, runs and prints what it wrote.
 
-Every bad input (a malformed scenario, an unknown key, a missing file, a negative count) ends
-with one line ``mrta: error: <what and where>`` on stderr and exit code 2, never a traceback.
-Ctrl-C stops cleanly with exit code 130 and says what was kept.
+Heavy modules are imported inside each command, so ``mrta --help`` and ``mrta validate`` start
+fast. ``COMMANDS`` maps a subcommand name to its function (:mod:`scenarios.cli.app` calls it).
 """
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
-
-from scenarios.cli_parser import EXIT_USAGE, build_parser
 
 
 def cmd_validate(args) -> int:
@@ -32,7 +28,7 @@ def cmd_validate(args) -> int:
 
 
 def cmd_reproduce(args) -> int:
-    from scenarios.reproduce import (
+    from scenarios.experiments.reproduce import (
         DEFAULT_DELTA_U_GRID,
         SPATIAL_DELTA_U_GRID,
         reproduce,
@@ -74,14 +70,12 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_stream(args) -> int:
-    import numpy as np
-
-    from scenarios.protocol import _load
+    from learning.seeding import run_generators
+    from scenarios.experiments.protocol import load_named
     from sim.tasks import generate_stream, save_stream
 
-    sc = _load(args.scenario)
-    stream_ss = np.random.SeedSequence(args.seed).spawn(3)[0]
-    stream = generate_stream(sc, np.random.default_rng(stream_ss))
+    sc = load_named(args.scenario)
+    stream = generate_stream(sc, run_generators(args.seed).stream)
     if not args.out.parent.is_dir():
         raise FileNotFoundError(f"{args.out.parent}: output folder does not exist")
     save_stream(stream, args.out)
@@ -90,9 +84,10 @@ def cmd_stream(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from scenarios.manifest import build_manifest, read_manifest, write_manifest
-    from scenarios.metrics import aggregate
-    from scenarios.protocol import RunSpec, UserError, _load, execute, write_json_atomic
+    from scenarios.experiments.manifest import build_manifest, read_manifest, write_manifest
+    from scenarios.experiments.metrics import aggregate
+    from scenarios.experiments.output import write_json_atomic
+    from scenarios.experiments.protocol import RunSpec, UserError, execute, load_named
 
     out = args.out or Path("renders") / "run"
     if args.replay is not None:
@@ -114,7 +109,7 @@ def cmd_run(args) -> int:
     checkpoint = out / "checkpoint.npz" if (args.checkpoint or args.resume) else None
     if args.resume and not checkpoint.is_file():
         raise UserError(f"{checkpoint}: no checkpoint to resume from (run with --checkpoint first)")
-    scenario = _load(spec.scenario)
+    scenario = load_named(spec.scenario)
     if checkpoint is not None and scenario.spatial is not None:
         raise UserError("checkpoints and --resume are supported in the abstract world only")
     manifest = build_manifest(scenario, [spec])
@@ -123,8 +118,8 @@ def cmd_run(args) -> int:
     write_manifest(out, manifest)  # only once the run succeeded: a failed run leaves OUT as it was
     table = summary.pop("task_table")
     if scenario.spatial is not None:
-        from scenarios.figures import fig_run_spatial
-        from scenarios.protocol import write_csv_atomic
+        from scenarios.experiments.figures import fig_run_spatial
+        from scenarios.experiments.output import write_csv_atomic
 
         write_csv_atomic(out / "tasks.csv", table)
         fig_run_spatial(table, summary["spatial"], spec.cost, out / "spatial.png")
@@ -145,7 +140,7 @@ def cmd_run(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from scenarios.compare import compare, markdown_table
+    from scenarios.experiments.compare import compare, markdown_table
 
     out = args.out or Path("renders") / "compare" / Path(args.scenario).stem
     doc = compare(
@@ -164,11 +159,11 @@ def cmd_compare(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from scenarios.protocol import RunSpec, UserError, _load, execute
+    from scenarios.experiments.protocol import RunSpec, UserError, execute, load_named
     from sim.recording import TrajectoryRecorder
     from sim.render import render_gif, render_mp4
 
-    sc = _load(args.scenario)
+    sc = load_named(args.scenario)
     if sc.spatial is None:
         raise UserError(
             f"{args.scenario}: render needs a spatial scenario (one with a [spatial] table)"
@@ -224,7 +219,7 @@ def cmd_bench(args) -> int:
 def cmd_soak(args) -> int:
     import json
 
-    from scenarios.soak import soak
+    from scenarios.experiments.soak import soak
 
     result = soak(
         args.scenario, args.tasks, args.allocator, args.cost, args.seed, progress=not args.json
@@ -238,15 +233,48 @@ def cmd_soak(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    from scenarios.sweep import cmd_sweep as run
+    """The ``mrta sweep`` command: run, then print where the outputs went."""
+    from scenarios.sweep.report import key_columns
+    from scenarios.sweep.runner import run_sweep
+    from scenarios.sweep.spec import load_sweep
 
-    return run(args)
+    sweep = load_sweep(args.spec)
+    out = args.out or Path("renders") / "sweeps" / sweep.name
+    rows = run_sweep(
+        args.spec,
+        out,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        progress=not getattr(args, "no_progress", False),
+    )
+    groups = len({tuple(r[c] for c in key_columns(sweep) if c != "seed") for r in rows})
+    print(
+        f"sweep {sweep.name}: {len(rows)} runs ({groups} combinations x {len(sweep.seeds)} seeds); "
+        f"wrote {out}/runs.csv, summary.csv, summary.json and "
+        f"{len(sweep.parameters)} sensitivity plot(s)"
+    )
+    return 0
 
 
 def cmd_study(args) -> int:
-    from scenarios.study import cmd_study as run
+    """The ``mrta study`` command: run (or resume) the parts, print the tables."""
+    from scenarios.experiments.protocol import UserError
+    from scenarios.sweep.study import STUDIES, run_study
+    from scenarios.sweep.study_analysis import markdown
 
-    return run(args)
+    parts = STUDIES[args.name]
+    if args.only:
+        wanted = tuple(p.strip() for p in args.only.split(",") if p.strip())
+        unknown = [p for p in wanted if p not in parts]
+        if unknown or not wanted:
+            raise UserError(f"--only: unknown part {unknown[0] if unknown else '(none)'!r}; "
+                            f"parts of {args.name}: {', '.join(parts)}")  # fmt: skip
+        parts = wanted
+    out = args.out or Path("renders") / "study" / args.name
+    doc = run_study(out, parts, args.workers, args.scheduler, not args.no_progress)
+    print(markdown(doc))
+    print(f"wrote {out}/study.json, study.md and the figures")
+    return 0
 
 
 COMMANDS = {
@@ -261,50 +289,3 @@ COMMANDS = {
     "study": cmd_study,
     "soak": cmd_soak,
 }
-
-
-WHERE = {  # what an interrupted command leaves behind, said on Ctrl-C
-    "reproduce": "metrics.json and the figures are written only at the end, so --out is unchanged",
-    "compare": "compare.json and the figures are written only at the end, so --out is unchanged",
-    "run": "with --checkpoint, OUT/checkpoint.npz holds the last finished task set: "
-    "repeat the command with --resume to continue",
-    "sweep": "finished runs are in OUT/runs.csv: repeat the command to run only the missing ones",
-    "study": "finished runs are in OUT/<part>/runs.csv: repeat the command to go on",
-    "soak": "no output is written by a soak",
-}
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``mrta`` console script."""
-    from learning.checkpoint import CheckpointError
-    from learning.episode import InvariantError
-    from scenarios.loader import ScenarioError
-    from scenarios.protocol import UserError
-    from sim.tasks import StreamFileError
-
-    args = build_parser().parse_args(argv)
-    try:
-        return COMMANDS[args.command](args)
-    except (ScenarioError, StreamFileError, UserError) as exc:
-        print(f"mrta: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except FileNotFoundError as exc:
-        print(f"mrta: error: {exc.filename or exc}: file or folder not found", file=sys.stderr)
-        return EXIT_USAGE
-    except CheckpointError as exc:
-        print(f"mrta: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except InvariantError as exc:
-        print(f"mrta: invariant violated: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(
-            f"mrta: interrupted; {WHERE.get(args.command, 'completed outputs were kept')}; "
-            "nothing was half-written",
-            file=sys.stderr,
-        )
-        return 130
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -5,9 +5,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from scenarios.figures import STYLE, allocator_bars, new_figure, save_figure
-from scenarios.metrics import aggregate
-from scenarios.protocol import RunSpec, _load, check_cost, run_many, write_json_atomic
+from scenarios.experiments.figures import STYLE, allocator_bars, new_figure, save_figure
+from scenarios.experiments.metrics import aggregate
+from scenarios.experiments.output import write_json_atomic
+from scenarios.experiments.protocol import RunSpec, check_cost, load_named, run_many
 
 COLUMNS = (
     ("low", "completion low", "{:.3f}"),
@@ -32,7 +33,7 @@ def compare(
     overrides: tuple[tuple[str, float], ...] = (),
 ) -> dict:
     """Run every (cost, allocator, seed), write compare.json, compare.md and compare.png."""
-    sc = _load(scenario)
+    sc = load_named(scenario)
     for cost in costs:
         check_cost(sc, cost)
     combos = [(c, a) for c in costs for a in allocators]

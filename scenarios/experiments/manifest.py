@@ -16,7 +16,8 @@ from dataclasses import asdict, fields
 from importlib import metadata
 from pathlib import Path
 
-from scenarios.protocol import RunSpec, UserError, write_json_atomic
+from scenarios.experiments.output import write_json_atomic
+from scenarios.experiments.protocol import RunSpec, UserError
 from sim.scenario import Scenario
 
 MANIFEST_FORMAT = "expt-mrta-manifest/1"

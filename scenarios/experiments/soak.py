@@ -14,7 +14,7 @@ import resource
 import time
 
 from learning.episode import run_protocol
-from scenarios.protocol import RunSpec, UserError, _load, build_run
+from scenarios.experiments.protocol import RunSpec, UserError, build_run, load_named
 
 
 def peak_rss_mib() -> float:
@@ -33,7 +33,7 @@ def soak(
     """Run the soak and return its figures (JSON-able)."""
     from tqdm.auto import tqdm
 
-    sc = _load(scenario)
+    sc = load_named(scenario)
     if sc.spatial is None:
         raise UserError(f"{scenario}: soak needs a spatial scenario")
     if tasks < 1:

@@ -1,7 +1,7 @@
-"""``mrta sweep``: parameter sweeps from a TOML file, locally or on a Dask cluster, resumable.
+"""Parameter sweeps from a TOML file (``mrta sweep``), locally or on a Dask cluster, resumable.
 
 A sweep file names scenarios, allocators, cost models, seeds and the parameters to vary (any
-``section.key`` that :func:`scenarios.protocol.apply_overrides` understands)::
+``section.key`` that :func:`scenarios.experiments.protocol.apply_overrides` understands)::
 
     [sweep]
     scenarios = ["paper"]
@@ -28,32 +28,24 @@ one ``sensitivity_<parameter>.png`` per swept parameter are written, all atomica
 
 from __future__ import annotations
 
-import argparse
 import csv
 import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
-from scenarios.cli_parser import int_at_least
-from scenarios.protocol import RunSpec, UserError, execute
-from scenarios.sweep_report import (
-    key_columns,
-    metric_row,
-    read_rows,
-    typed_row,
-    write_outputs,
-    write_rows_atomic,
-)
-from scenarios.sweep_spec import SweepSpec, load_sweep
+from scenarios.experiments.output import write_rows_atomic
+from scenarios.experiments.protocol import RunSpec, UserError, execute
+from scenarios.sweep.report import metric_row, read_rows, typed_row, write_outputs
+from scenarios.sweep.spec import SweepSpec, load_sweep
 
-__all__ = ["SweepSpec", "add_parser", "cmd_sweep", "load_sweep", "run_sweep"]
+__all__ = ["run_metrics", "run_sweep"]
 
 
 def _all_cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
-def _run_metrics(spec: RunSpec) -> dict[str, str]:
+def run_metrics(spec: RunSpec) -> dict[str, str]:
     """Worker side: run one spec, return its metric columns as CSV strings."""
     return metric_row(execute(spec))
 
@@ -137,7 +129,7 @@ def _execute_all(sweep: SweepSpec, todo, fh, workers, client, progress) -> dict:
             _run_dask(client, todo, record)
         elif (workers or _all_cores()) <= 1 or len(todo) == 1:
             for key, run in todo:
-                record(key, run, _run_metrics(run.spec))
+                record(key, run, run_metrics(run.spec))
         else:
             _run_pool(workers or _all_cores(), todo, record)
     finally:
@@ -148,7 +140,7 @@ def _execute_all(sweep: SweepSpec, todo, fh, workers, client, progress) -> dict:
 def _run_pool(workers: int, todo, record) -> None:
     pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
     try:
-        pending = {pool.submit(_run_metrics, run.spec): (key, run) for key, run in todo}
+        pending = {pool.submit(run_metrics, run.spec): (key, run) for key, run in todo}
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
             for fut in finished:
@@ -177,7 +169,7 @@ def _run_dask(client, todo, record) -> None:
     """Submit every run to the cluster; rows are recorded as futures complete."""
     from distributed import as_completed
 
-    futures = client.map(_run_metrics, [run.spec for _, run in todo], pure=False)
+    futures = client.map(run_metrics, [run.spec for _, run in todo], pure=False)
     origin = {fut.key: item for fut, item in zip(futures, todo, strict=True)}
     try:
         for fut in as_completed(futures):
@@ -186,50 +178,3 @@ def _run_dask(client, todo, record) -> None:
     except BaseException:
         client.cancel(futures)
         raise
-
-
-# -- command line ------------------------------------------------------------------------------
-def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``mrta sweep SPEC.toml [--out DIR] [--workers N] [--scheduler ADDRESS]``."""
-    p = subparsers.add_parser(
-        "sweep",
-        help="run a parameter sweep file: runs.csv, summary.csv/json, sensitivity plots",
-        description="Run every combination of scenarios x allocators x cost models x parameter "
-        "values x seeds named in a sweep TOML file, on local processes or a Dask cluster. "
-        "Re-running into the same --out folder skips the runs already in runs.csv.",
-    )
-    p.add_argument("spec", help="sweep TOML file, or a bundled sweep name (e.g. delta_u)")
-    p.add_argument(
-        "--out", type=Path, default=None, help="output folder (default renders/sweeps/<name>/)"
-    )
-    p.add_argument(
-        "--workers", type=int_at_least(1), default=None, help="local processes (default: all cores)"
-    )
-    p.add_argument(
-        "--scheduler",
-        default=None,
-        metavar="ADDRESS",
-        help="run on a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (needs expt-mrta[cluster])",
-    )
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    return p
-
-
-def cmd_sweep(args) -> int:
-    """The ``mrta sweep`` command: run, then print where the outputs went."""
-    sweep = load_sweep(args.spec)
-    out = args.out or Path("renders") / "sweeps" / sweep.name
-    rows = run_sweep(
-        args.spec,
-        out,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        progress=not getattr(args, "no_progress", False),
-    )
-    groups = len({tuple(r[c] for c in key_columns(sweep) if c != "seed") for r in rows})
-    print(
-        f"sweep {sweep.name}: {len(rows)} runs ({groups} combinations x {len(sweep.seeds)} seeds); "
-        f"wrote {out}/runs.csv, summary.csv, summary.json and "
-        f"{len(sweep.parameters)} sensitivity plot(s)"
-    )
-    return 0

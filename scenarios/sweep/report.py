@@ -9,35 +9,18 @@ from __future__ import annotations
 
 import csv
 import math
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from learning.episode import LOSS_CAUSES
-from scenarios.metrics import ci95
-from scenarios.protocol import UserError, write_json_atomic
+from scenarios.experiments.metrics import ci95
+from scenarios.experiments.output import write_json_atomic, write_rows_atomic
+from scenarios.experiments.protocol import UserError
+from scenarios.sweep.columns import INT_COLUMNS, METRIC_COLUMNS
+from scenarios.sweep.spec import PARAMETERS
 
-METRIC_COLUMNS = (
-    "completion_low",
-    "completion_high",
-    "completion_all",
-    "tasks_announced",
-    "tasks_allocated",
-    "space_initial",
-    "space_final",
-    "space_joint_log10",
-    "kept_capabilities",  # (robot, type) pairs still willing at the end (ExpT refusals shrink it)
-    "min_willing",  # fewest willing robots of any type at the end
-    "offered_load",  # mean batch x mean execution time / (announce interval x robots)
-    *(f"lost_{cause}" for cause in LOSS_CAUSES),  # test-set tasks lost, by cause
-    "specialisation_bits",  # mean over robots of the entropy of the types each was given
-    "distance_per_task_m",  # spatial: metres driven per completed task (test sets)
-    "time_per_task_s",  # spatial: allocation to done, per completed task
-)
-INT_COLUMNS = {"seed", "tasks_announced", "tasks_allocated", "space_initial", "space_final"}
-INT_COLUMNS |= {"kept_capabilities", "min_willing", *(f"lost_{c}" for c in LOSS_CAUSES)}
 SUMMARY_METRICS = (
     "completion_low",
     "completion_high",
@@ -70,7 +53,8 @@ def _opt(x: float | None) -> str:
 
 
 def metric_row(summary: dict) -> dict[str, str]:
-    """The metric columns of one run, as CSV text, from :func:`scenarios.protocol.execute`."""
+    """The metric columns of one run, as CSV text, from a summary of
+    :func:`scenarios.experiments.protocol.execute`."""
     comp = summary["completion"]["overall"]
     row = {
         "completion_low": _num(comp["low"]),
@@ -143,18 +127,6 @@ def read_rows(path: Path, header: list[str], wanted: set[tuple[str, ...]]) -> di
     return out
 
 
-def write_rows_atomic(path: Path, header: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
-    """Write a CSV through a temporary file, fsync and rename."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="") as fh:
-        writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow(header)
-        writer.writerows(rows)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
 def _parse(column: str, text: str, bools: set[str]):
     if text == "":
         return None
@@ -170,8 +142,6 @@ def _parse(column: str, text: str, bools: set[str]):
 
 def typed_row(row: Sequence[str], sweep) -> dict:
     """A runs.csv row as a dict with numbers, booleans and None (empty cells) parsed."""
-    from scenarios.sweep_spec import PARAMETERS
-
     bools = {p for p in sweep.parameters if isinstance(PARAMETERS[p], bool)}
     strings = {p for p in sweep.parameters if isinstance(PARAMETERS[p], str)}
     out = {}
@@ -261,7 +231,12 @@ def fig_sensitivity(sweep, records: list[dict], parameter: str, path: Path | Non
     Points are means over seeds and over the other swept parameters (marginal effect), with 95%
     confidence bars over those runs. Each line carries ``gid = "<metric>:<label>"``.
     """
-    from scenarios.figures import ALLOCATOR_LABELS, allocator_colour, new_figure, save_figure
+    from scenarios.experiments.figures import (
+        ALLOCATOR_LABELS,
+        allocator_colour,
+        new_figure,
+        save_figure,
+    )
 
     xs = sorted({r[parameter] for r in records})
     numeric = all(isinstance(x, int | float) and not isinstance(x, bool) for x in xs)

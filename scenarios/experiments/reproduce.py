@@ -6,11 +6,12 @@ from pathlib import Path
 
 from learning import ALLOCATORS
 from learning.qtable import space_size
-from scenarios.figures import fig_completion, fig_robot_trace, fig_tradeoff
-from scenarios.manifest import build_manifest, write_manifest
-from scenarios.metrics import aggregate
-from scenarios.protocol import RunSpec, _load, check_cost, run_many, write_json_atomic
-from scenarios.reference import PAPER_TABLE2
+from scenarios.experiments.figures import fig_completion, fig_robot_trace, fig_tradeoff
+from scenarios.experiments.manifest import build_manifest, write_manifest
+from scenarios.experiments.metrics import aggregate
+from scenarios.experiments.output import write_json_atomic
+from scenarios.experiments.protocol import RunSpec, check_cost, load_named, run_many
+from scenarios.experiments.reference import PAPER_TABLE2
 
 DEFAULT_DELTA_U_GRID = (0.02, 0.03, 0.05, 0.08, 0.1, 0.2, 0.3, 0.5)
 SPATIAL_DELTA_U_GRID = (0.02, 0.3)  # physics runs cost ~100x more: a short curve by default
@@ -27,7 +28,7 @@ def reproduce(
     progress: bool = True,
 ) -> dict:
     """Run market, QL-MRTA and ExpT-MRTA (plus the delta_u trade-off) and write all outputs."""
-    sc = _load(scenario)
+    sc = load_named(scenario)
     check_cost(sc, cost)
     names = [r.name for r in sc.robots]
     trace_robot = trace_robot if trace_robot in names else names[0]
@@ -58,7 +59,7 @@ def reproduce(
     for k, du in enumerate(grid):
         start = len(allocs) * len(seeds) + k * len(seeds)
         tradeoff_runs[du] = results[start : start + len(seeds)]
-    points = [_tradeoff_point(du, aggregate(runs)) for du, runs in sorted(tradeoff_runs.items())]
+    points = [tradeoff_point(du, aggregate(runs)) for du, runs in sorted(tradeoff_runs.items())]
     metrics["tradeoff"] = {"parameter": "experience.delta_u", "points": points}
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -69,13 +70,14 @@ def reproduce(
     if trace is not None:
         fig_robot_trace(trace, out / "fig2_r5.png")
     if grid:
-        refs = {a: _tradeoff_point(None, metrics["allocators"][a]) for a in allocs if a != "expt"}
+        refs = {a: tradeoff_point(None, metrics["allocators"][a]) for a in allocs if a != "expt"}
         fig_tradeoff(points, refs, out / "tradeoff.png")
     (out / "table2.md").write_text(table2_markdown(sc, metrics["allocators"]["expt"]))
     return metrics
 
 
-def _tradeoff_point(delta_u: float | None, agg: dict) -> dict:
+def tradeoff_point(delta_u: float | None, agg: dict) -> dict:
+    """One point of tradeoff.png: final learning space and completion (with CIs) of a run group."""
     comp = agg["completion"]
     space = agg.get("learning_space", {})
     return {
@@ -153,4 +155,5 @@ __all__ = [
     "reproduce",
     "summary_table",
     "table2_markdown",
+    "tradeoff_point",
 ]

@@ -38,3 +38,24 @@ def tiny() -> Scenario:
             n_sets=4, rounds_per_set=5, learn_sets=3, test_sets=2, batch_min=1, batch_max=3
         ),
     )
+
+
+REPORT_KEY = pytest.StashKey[list]()
+
+
+@pytest.fixture()
+def report_line(request):
+    """Add a line to the 'measured by the tests' section printed after the test summary."""
+
+    def add(text: str) -> None:
+        request.config.stash.setdefault(REPORT_KEY, []).append(text)
+
+    return add
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    lines = config.stash.get(REPORT_KEY, [])
+    if lines:
+        terminalreporter.section("measured by the tests")
+        for line in lines:
+            terminalreporter.write_line(line)

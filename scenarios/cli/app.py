@@ -27,6 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mrta`` console script."""
     from learning.checkpoint import CheckpointError
     from learning.episode import InvariantError
+    from learning.registry import AllocatorError
     from scenarios.experiments.protocol import UserError
     from scenarios.loader import ScenarioError
     from sim.tasks import StreamFileError
@@ -34,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return COMMANDS[args.command](args)
-    except (ScenarioError, StreamFileError, UserError) as exc:
+    except (ScenarioError, StreamFileError, UserError, AllocatorError) as exc:
         print(f"mrta: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except FileNotFoundError as exc:

@@ -56,6 +56,7 @@ def cmd_reproduce(args) -> int:
         delta_u_grid=grid,
         trace_robot=args.robot,
         progress=not args.no_progress,
+        extra_allocators=tuple(args.with_allocators),
     )
     print(
         f"{metrics['scenario']} ({metrics['cost_model']} cost), test-set completion, "

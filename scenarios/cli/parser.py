@@ -69,7 +69,7 @@ _non_negative_int = int_at_least(0)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from learning import ALLOCATORS
+    from learning.registry import PAPER_ALLOCATORS, available
 
     p = _Parser(
         prog="mrta",
@@ -116,6 +116,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--workers", type=_positive_int, default=None, help="processes (default: all cores)"
     )
     r.add_argument("--robot", default="R5", help="robot whose experience fig2 shows (default R5)")
+    r.add_argument(
+        "--with",
+        dest="with_allocators",
+        type=_allocator_list,
+        default=[],
+        metavar="ALLOCATORS",
+        help="more allocators beside market, ql and expt, comma-separated: greedy, cbba, an "
+        "installed plug-in or module:Class (default none)",
+    )
     r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     s = sub.add_parser("stream", help="write a seeded task stream to JSON or CSV for replay")
@@ -143,7 +152,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--checkpoint", action="store_true", help="write OUT/checkpoint.npz after every set"
     )
     run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
-    run.add_argument("--allocator", choices=sorted(ALLOCATORS), default="expt")
+    run.add_argument(
+        "--allocator",
+        type=_allocator_name,
+        default="expt",
+        help=f"{', '.join(available())}, or module:Class of your own (default expt)",
+    )
     run.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
     run.add_argument("--seed", type=_non_negative_int, default=0)
     run.add_argument("--stream", type=Path, default=None, help="replay a stream file (mrta stream)")
@@ -164,9 +178,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument(
         "--allocators",
-        type=_name_list(set(ALLOCATORS)),
-        default=list(ALLOCATORS),
-        help="comma-separated allocators (default market,ql,expt)",
+        type=_allocator_list,
+        default=list(PAPER_ALLOCATORS),
+        help="comma-separated allocators: market, ql, expt, greedy, cbba, installed plug-ins "
+        "or module:Class (default market,ql,expt)",
     )
     c.add_argument(
         "--seeds", type=_seed_list, default=_seed_list("5"), help="count, list or range (default 5)"
@@ -185,7 +200,9 @@ def build_parser() -> argparse.ArgumentParser:
         "into a GIF (and an MP4 with --mp4 where ffmpeg exists). No display needed.",
     )
     g.add_argument("scenario")
-    g.add_argument("--allocator", choices=sorted(ALLOCATORS), default="expt")
+    g.add_argument(
+        "--allocator", type=_allocator_name, default="expt", help="as for mrta run (default expt)"
+    )
     g.add_argument("--cost", choices=["abstract", "distance", "time"], default="distance")
     g.add_argument("--seed", type=_non_negative_int, default=0)
     g.add_argument("--sets", type=_positive_int, default=2, help="task sets to play (default 2)")
@@ -236,7 +253,7 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument(
         "--tasks", type=_positive_int, default=100_000, help="tasks to announce (default 100000)"
     )
-    k.add_argument("--allocator", choices=sorted(ALLOCATORS), default="market")
+    k.add_argument("--allocator", type=_allocator_name, default="market", help="(default market)")
     k.add_argument("--cost", choices=["abstract", "distance", "time"], default="distance")
     k.add_argument("--seed", type=_non_negative_int, default=0)
     k.add_argument("--json", action="store_true", help="print one JSON object")
@@ -306,6 +323,26 @@ def add_study_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     return p
+
+
+def _allocator_name(text: str) -> str:
+    """An allocator name that resolves (built-in, plug-in or module:Class), else a usage error."""
+    from learning.registry import AllocatorError, allocator_class
+
+    try:
+        allocator_class(text)
+    except AllocatorError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
+
+
+def _allocator_list(text: str) -> list[str]:
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("give at least one allocator")
+    if len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(f"an allocator is named twice in {text!r}")
+    return [_allocator_name(n) for n in names]
 
 
 def _name_list(allowed: set[str]):

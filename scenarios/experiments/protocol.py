@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 
 from allocation.costs import make_cost_model
-from learning import ALLOCATORS
 from learning.checkpoint import (
     CheckpointError,
     allocator_arrays,
@@ -30,6 +29,7 @@ from learning.checkpoint import (
     save_checkpoint,
 )
 from learning.episode import record_arrays, record_from_arrays, run_protocol
+from learning.registry import allocator_class
 from learning.seeding import run_generators
 from scenarios.experiments.metrics import (
     completion_table,
@@ -105,7 +105,7 @@ def build_run(spec: RunSpec):
         stream = generate_stream(scenario, rngs.stream)
     world = make_world(scenario)
     cost = make_cost_model(spec.cost, scenario, getattr(world, "planner", None))
-    allocator = ALLOCATORS[spec.allocator](scenario)
+    allocator = allocator_class(spec.allocator)(scenario)
     allocator.reset(rngs.allocator)
     return scenario, stream, world, cost, allocator, rngs.world
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from learning import ALLOCATORS
 from learning.qtable import space_size
+from learning.registry import PAPER_ALLOCATORS
 from scenarios.experiments.figures import fig_completion, fig_robot_trace, fig_tradeoff
 from scenarios.experiments.manifest import build_manifest, write_manifest
 from scenarios.experiments.metrics import aggregate
@@ -26,13 +26,18 @@ def reproduce(
     delta_u_grid: tuple[float, ...] = DEFAULT_DELTA_U_GRID,
     trace_robot: str = "R5",
     progress: bool = True,
+    extra_allocators: tuple[str, ...] = (),
 ) -> dict:
-    """Run market, QL-MRTA and ExpT-MRTA (plus the delta_u trade-off) and write all outputs."""
+    """Run market, QL-MRTA and ExpT-MRTA (plus the delta_u trade-off) and write all outputs.
+
+    ``extra_allocators`` (e.g. ``("greedy", "cbba")`` or ``"mypkg.alloc:Mine"``) are run on the
+    same streams and appear in metrics.json and fig1 beside the paper's three.
+    """
     sc = load_named(scenario)
     check_cost(sc, cost)
     names = [r.name for r in sc.robots]
     trace_robot = trace_robot if trace_robot in names else names[0]
-    allocs = list(ALLOCATORS)
+    allocs = list(PAPER_ALLOCATORS) + [a for a in extra_allocators if a not in PAPER_ALLOCATORS]
     specs = [
         RunSpec(
             scenario, a, cost, s, trace_robot=trace_robot if (a == "expt" and s == seeds[0]) else ""

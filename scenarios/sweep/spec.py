@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from allocation.costs import COST_MODELS
-from learning import ALLOCATORS
+from learning.registry import AllocatorError, allocator_class
 from scenarios.experiments.protocol import OVERRIDABLE, RunSpec
 from scenarios.loader import (
     ScenarioError,
@@ -239,7 +239,12 @@ class _Parser:
         if not isinstance(description, str):
             self.fail("sweep.description", "must be a string")
         scenarios = self.names(head, "scenarios", None)
-        allocators = self.names(head, "allocators", set(ALLOCATORS))
+        allocators = self.names(head, "allocators", None)
+        for i, a in enumerate(allocators):
+            try:
+                allocator_class(a)
+            except AllocatorError as exc:
+                self.fail(f"sweep.allocators[{i}]", str(exc))
         costs = self.names(head, "costs", set(COST_MODELS), default=["abstract"])
         seeds = self.seeds(head)
         fixed_raw = self.params(doc.get("fixed", {}), "fixed")

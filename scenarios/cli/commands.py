@@ -6,8 +6,21 @@ fast. ``COMMANDS`` maps a subcommand name to its function (:mod:`scenarios.cli.a
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
+
+MIN_SEEDS = 5
+
+
+def warn_few_seeds(seeds: list[int]) -> None:
+    """One line on stderr when a confidence interval rests on fewer than MIN_SEEDS seeds."""
+    if len(seeds) < MIN_SEEDS:
+        print(
+            f"mrta: warning: {len(seeds)} seed(s): 95% intervals from fewer than {MIN_SEEDS} "
+            "seeds are unreliable (or null for one seed)",
+            file=sys.stderr,
+        )
 
 
 def cmd_validate(args) -> int:
@@ -38,6 +51,7 @@ def cmd_reproduce(args) -> int:
     spatial = args.cost != "abstract"
     scenario = args.scenario or ("paper_spatial" if spatial else "paper")
     seeds = args.seeds or list(range(5 if spatial else 10))
+    warn_few_seeds(seeds)
     grid = (
         args.tradeoff
         if args.tradeoff is not None
@@ -88,6 +102,7 @@ def cmd_run(args) -> int:
     from scenarios.experiments.manifest import build_manifest, read_manifest, write_manifest
     from scenarios.experiments.metrics import aggregate
     from scenarios.experiments.output import write_json_atomic
+    from scenarios.experiments.progress import progress_bar, protocol_rounds
     from scenarios.experiments.protocol import RunSpec, UserError, execute, load_named
 
     out = args.out or Path("renders") / "run"
@@ -115,7 +130,11 @@ def cmd_run(args) -> int:
         raise UserError("checkpoints and --resume are supported in the abstract world only")
     manifest = build_manifest(scenario, [spec])
     out.mkdir(parents=True, exist_ok=True)
-    summary = execute(spec, checkpoint=checkpoint, resume=args.resume, task_table=True)
+    desc = f"run {spec.allocator} on {scenario.name}"
+    with progress_bar(protocol_rounds(scenario), desc, "round", not args.no_progress) as bar:
+        summary = execute(
+            spec, checkpoint=checkpoint, resume=args.resume, task_table=True, on_round=bar.update
+        )
     write_manifest(out, manifest)  # only once the run succeeded: a failed run leaves OUT as it was
     table = summary.pop("task_table")
     if scenario.spatial is not None:
@@ -143,6 +162,7 @@ def cmd_run(args) -> int:
 def cmd_compare(args) -> int:
     from scenarios.experiments.compare import compare, markdown_table
 
+    warn_few_seeds(args.seeds)
     out = args.out or Path("renders") / "compare" / Path(args.scenario).stem
     doc = compare(
         args.scenario,
@@ -160,7 +180,14 @@ def cmd_compare(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from scenarios.experiments.protocol import RunSpec, UserError, execute, load_named
+    from scenarios.experiments.progress import progress_bar, protocol_rounds
+    from scenarios.experiments.protocol import (
+        RunSpec,
+        UserError,
+        apply_overrides,
+        execute,
+        load_named,
+    )
     from sim.recording import TrajectoryRecorder
     from sim.render import render_gif, render_mp4
 
@@ -178,7 +205,9 @@ def cmd_render(args) -> int:
             raise UserError(f"{path.parent}: output folder does not exist")
     recorder = TrajectoryRecorder.for_scenario(sc)
     spec = RunSpec(args.scenario, args.allocator, args.cost, args.seed, overrides)
-    execute(spec, recorder=recorder)
+    rounds = protocol_rounds(apply_overrides(sc, overrides))
+    with progress_bar(rounds, f"render: simulate {sc.name}", "round", not args.no_progress) as bar:
+        execute(spec, recorder=recorder, on_round=bar.update)
     traj = recorder.finish()
     end = float(traj.times_s[-1])
     t_to = args.t_to if args.t_to is not None else min(end, args.t_from + 180.0)
@@ -207,26 +236,29 @@ def cmd_render(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    import json
-
     from scenarios.bench import run_bench
+    from scenarios.experiments.output import dumps
 
     result = run_bench(args.only, progress=not args.json)
     if args.json:
-        print(json.dumps(result))
+        print(dumps(result))
     return 0
 
 
 def cmd_soak(args) -> int:
-    import json
-
+    from scenarios.experiments.output import dumps
     from scenarios.experiments.soak import soak
 
     result = soak(
-        args.scenario, args.tasks, args.allocator, args.cost, args.seed, progress=not args.json
+        args.scenario,
+        args.tasks,
+        args.allocator,
+        args.cost,
+        args.seed,
+        progress=not (args.json or args.no_progress),
     )
     if args.json:
-        print(json.dumps(result))
+        print(dumps(result))
     else:
         for key, value in result.items():
             print(f"{key:>24}: {value:,.4g}" if isinstance(value, float) else f"{key:>24}: {value}")

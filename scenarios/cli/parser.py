@@ -6,9 +6,32 @@ import argparse
 from pathlib import Path
 
 EXIT_USAGE = 2
+COSTS = ("abstract", "distance", "time")
+SCENARIO = "bundled scenario name (mrta validate --list) or TOML path"
+WORKERS = "processes (default: all cores)"
+NO_PROGRESS = "no progress bars (they are off anyway when stderr is not a terminal)"
+
+
+class _Help(argparse.HelpFormatter):
+    """Appends ``(default: X)`` to an option's help unless the help already names its default."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        hidden = default is None or default is False or default is argparse.SUPPRESS
+        shown = not hidden and not action.required
+        if shown and "default" not in text and action.option_strings:
+            if isinstance(default, list | tuple):
+                default = ",".join(str(x) for x in default) if default else "none"
+            text += f" (default: {str(default).replace('%', '%%')})"
+        return text
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("formatter_class", _Help)
+        super().__init__(*args, **kwargs)
+
     def error(self, message: str):  # one line, exit 2 (argparse prints usage too; keep it short)
         self.exit(
             EXIT_USAGE, f"mrta: error: {message} (see 'mrta {self.prog.split()[-1]} --help')\n"
@@ -94,7 +117,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--scenario", default=None, help="default: paper (paper_spatial for --cost distance/time)"
     )
-    r.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
+    r.add_argument(
+        "--cost",
+        choices=COSTS,
+        default="abstract",
+        help="bid cost model (spatial for distance/time)",
+    )
     r.add_argument(
         "--seeds",
         type=_seed_list,
@@ -112,9 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--out", type=Path, default=None, help="output folder (default renders/<scenario>/)"
     )
-    r.add_argument(
-        "--workers", type=_positive_int, default=None, help="processes (default: all cores)"
-    )
+    r.add_argument("--workers", type=_positive_int, default=None, help=WORKERS)
     r.add_argument("--robot", default="R5", help="robot whose experience fig2 shows (default R5)")
     r.add_argument(
         "--with",
@@ -125,11 +151,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="more allocators beside market, ql and expt, comma-separated: greedy, cbba, an "
         "installed plug-in or module:Class (default none)",
     )
-    r.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    r.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
     s = sub.add_parser("stream", help="write a seeded task stream to JSON or CSV for replay")
-    s.add_argument("scenario")
-    s.add_argument("--seed", type=_non_negative_int, default=0)
+    s.add_argument("scenario", help=SCENARIO)
+    s.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     s.add_argument("--out", type=Path, required=True, help="FILE.json or FILE.csv")
 
     run = sub.add_parser(
@@ -158,10 +184,11 @@ def build_parser() -> argparse.ArgumentParser:
         default="expt",
         help=f"{', '.join(available())}, or module:Class of your own (default expt)",
     )
-    run.add_argument("--cost", choices=["abstract", "distance", "time"], default="abstract")
-    run.add_argument("--seed", type=_non_negative_int, default=0)
+    run.add_argument("--cost", choices=COSTS, default="abstract", help="bid cost model")
+    run.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     run.add_argument("--stream", type=Path, default=None, help="replay a stream file (mrta stream)")
     run.add_argument("--out", type=Path, default=None, help="output folder (default renders/run/)")
+    run.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
     c = sub.add_parser(
         "compare",
         help="cost models x allocators side by side (spatial scenarios): table and plot",
@@ -169,11 +196,11 @@ def build_parser() -> argparse.ArgumentParser:
         "write compare.json, compare.md and compare.png (completion per priority, distance "
         "driven, waiting of high-priority tasks, learning space; 95% CI over seeds).",
     )
-    c.add_argument("scenario")
+    c.add_argument("scenario", help=SCENARIO)
     c.add_argument(
         "--costs",
-        type=_name_list({"abstract", "distance", "time"}),
-        default=["abstract", "distance", "time"],
+        type=_name_list(set(COSTS)),
+        default=list(COSTS),
         help="comma-separated cost models (default abstract,distance,time)",
     )
     c.add_argument(
@@ -184,13 +211,17 @@ def build_parser() -> argparse.ArgumentParser:
         "or module:Class (default market,ql,expt)",
     )
     c.add_argument(
-        "--seeds", type=_seed_list, default=_seed_list("5"), help="count, list or range (default 5)"
+        "--seeds",
+        type=_seed_list,
+        default=_seed_list("5"),
+        help="a count N (seeds 0..N-1), a list '1,4,9' or a range '0-19' (default 5; fewer than "
+        "5 make the 95%% intervals unreliable)",
     )
     c.add_argument(
         "--out", type=Path, default=None, help="output folder (default renders/compare/<scenario>)"
     )
-    c.add_argument("--workers", type=_positive_int, default=None)
-    c.add_argument("--no-progress", action="store_true")
+    c.add_argument("--workers", type=_positive_int, default=None, help=WORKERS)
+    c.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
     g = sub.add_parser(
         "render",
@@ -199,17 +230,17 @@ def build_parser() -> argparse.ArgumentParser:
         "robot poses and task events, and draw frames between --from and --to simulated seconds "
         "into a GIF (and an MP4 with --mp4 where ffmpeg exists). No display needed.",
     )
-    g.add_argument("scenario")
+    g.add_argument("scenario", help="spatial scenario name or TOML path")
     g.add_argument(
         "--allocator", type=_allocator_name, default="expt", help="as for mrta run (default expt)"
     )
-    g.add_argument("--cost", choices=["abstract", "distance", "time"], default="distance")
-    g.add_argument("--seed", type=_non_negative_int, default=0)
+    g.add_argument("--cost", choices=COSTS, default="distance", help="bid cost model")
+    g.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     g.add_argument("--sets", type=_positive_int, default=2, help="task sets to play (default 2)")
     g.add_argument("--gif", type=Path, required=True, help="output GIF path")
     g.add_argument("--mp4", type=Path, default=None, help="also write an MP4 (needs ffmpeg)")
-    g.add_argument("--frames", type=_positive_int, default=200)
-    g.add_argument("--fps", type=_positive_int, default=20)
+    g.add_argument("--frames", type=_positive_int, default=200, help="frames in the GIF")
+    g.add_argument("--fps", type=_positive_int, default=20, help="frames per second of playback")
     g.add_argument("--size", type=_size, default=(600, 600), help="WxH pixels (default 600x600)")
     g.add_argument(
         "--from", dest="t_from", type=float, default=0.0, help="start, simulated s (default 0)"
@@ -225,6 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--trail", type=float, default=10.0, help="trail length, simulated s (default 10)"
     )
     g.add_argument("--trajectory", type=Path, default=None, help="also save the recording (.npz)")
+    g.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
     b = sub.add_parser(
         "bench",
@@ -244,7 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
         "soak",
         help="a long spatial run: memory, overlaps, stuck robots and invariants over 100k tasks",
         description="Play a spatial scenario until --tasks tasks were announced, keeping counts "
-        "only, and report peak RSS at 10%% and 100%% of the run, the deepest overlap, failed "
+        "only, and report peak RSS at 10% and 100% of the run, the deepest overlap, failed "
         "tasks and wall time. Invariants are checked every round; a violation stops it (exit 1).",
     )
     k.add_argument(
@@ -254,9 +286,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--tasks", type=_positive_int, default=100_000, help="tasks to announce (default 100000)"
     )
     k.add_argument("--allocator", type=_allocator_name, default="market", help="(default market)")
-    k.add_argument("--cost", choices=["abstract", "distance", "time"], default="distance")
-    k.add_argument("--seed", type=_non_negative_int, default=0)
+    k.add_argument("--cost", choices=COSTS, default="distance", help="bid cost model")
+    k.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     k.add_argument("--json", action="store_true", help="print one JSON object")
+    k.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
     add_sweep_parser(sub)
     add_study_parser(sub)
@@ -285,7 +318,7 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
         metavar="ADDRESS",
         help="run on a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (needs expt-mrta[cluster])",
     )
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
     return p
 
 
@@ -321,7 +354,7 @@ def add_study_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="a running Dask scheduler address"
     )
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
+    p.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
     return p
 
 

@@ -256,7 +256,30 @@ def aggregate(runs: list[dict]) -> dict:
     if "spatial" in runs[0]:
         mean, half, per_seed = _stat_tree(runs, lambda r: r["spatial"])
         out["spatial"] = {**mean, "ci95": half, "per_seed": per_seed}
+    notes = null_notes(runs, out)
+    if notes:
+        out["notes"] = notes
     return out
+
+
+def null_notes(runs: list[dict], agg: dict) -> list[str]:
+    """Why values of an aggregate are null in metrics.json (JSON has no NaN)."""
+    notes = []
+    if len(runs) < 2:
+        notes.append("ci95 values are null: a 95% interval needs at least 2 seeds")
+    ratios = [v for t in agg["completion"]["by_type"].values() for v in t.values()]
+    if any(isinstance(v, float) and math.isnan(v) for v in ratios):
+        notes.append(
+            "a null completion ratio: no task of that type and priority was announced on the "
+            "test sets"
+        )
+    spatial = agg.get("spatial")
+    if spatial is not None and math.isnan(spatial.get("estimate_error", 0.0)):
+        notes.append(
+            "estimate_error is null: abstract bids are not physical quantities (or no task "
+            "was completed)"
+        )
+    return notes
 
 
 def _types_of(run: dict, robot: str) -> list[str]:

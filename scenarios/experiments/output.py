@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -24,13 +25,34 @@ def write_csv_atomic(path: Path, columns: dict[str, list]) -> None:
     os.replace(tmp, path)
 
 
+def strict_json(doc: Any) -> Any:
+    """``doc`` with every NaN and infinity replaced by ``None``: JSON that any parser reads.
+
+    Outputs say why a value is null in a field beside it (``ci95_note``, ``estimate_note``).
+    """
+    if isinstance(doc, float):
+        return doc if math.isfinite(doc) else None
+    if isinstance(doc, dict):
+        return {k: strict_json(v) for k, v in doc.items()}
+    if isinstance(doc, list | tuple):
+        return [strict_json(v) for v in doc]
+    if hasattr(doc, "item") and hasattr(doc, "dtype"):  # numpy scalars
+        return strict_json(doc.item())
+    return doc
+
+
+def dumps(doc: Any, **kwargs) -> str:
+    """Strict JSON text (no NaN or Infinity tokens) of ``doc``."""
+    return json.dumps(strict_json(doc), allow_nan=False, **kwargs)
+
+
 def write_json_atomic(path: Path, doc: Any) -> None:
-    """Write JSON via a temporary file, fsync and rename: never a half-written file."""
+    """Write strict JSON via a temporary file, fsync and rename: never a half-written file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp")
     with tmp.open("w") as fh:
-        json.dump(doc, fh, indent=1, allow_nan=True)
+        json.dump(strict_json(doc), fh, indent=1, allow_nan=False)
         fh.write("\n")
         fh.flush()
         os.fsync(fh.fileno())

@@ -128,6 +128,7 @@ def execute(
     resume: bool = False,
     recorder=None,
     task_table: bool = False,
+    on_round=None,
 ) -> dict:
     """Run one spec and return its JSON-able summary (plus the fig. 2 trace when asked).
 
@@ -137,6 +138,7 @@ def execute(
             that of an uninterrupted run.
         recorder: a ``sim.recording.TrajectoryRecorder`` (spatial worlds) to fill.
         task_table: add ``"task_table"``, one row per test-phase task that was allocated.
+        on_round: called after every announcement round (progress bars).
     """
     scenario, stream, world, cost, allocator, rng = build_run(spec)
     if recorder is not None:
@@ -170,6 +172,7 @@ def execute(
         on_set_end=on_set_end,
         resume=resume_at,
         recorder=recorder,
+        on_round=on_round,
     )
     out = summarize_run(scenario, stream, record, allocator.learns)
     out["spec"] = dataclasses.asdict(spec)
@@ -221,10 +224,10 @@ def run_many(
     desc: str = "runs",
 ) -> list[dict]:
     """Execute specs, in parallel when ``workers`` > 1; results come back in spec order."""
-    from tqdm.auto import tqdm
+    from scenarios.experiments.progress import progress_bar
 
     workers = default_workers() if workers is None else workers
-    bar = tqdm(total=len(specs), desc=desc, unit="run", disable=not progress, leave=False)
+    bar = progress_bar(len(specs), desc, "run", progress)
     try:
         if workers <= 1 or len(specs) <= 1:
             results = []

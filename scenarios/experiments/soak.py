@@ -31,7 +31,7 @@ def soak(
     progress: bool = True,
 ) -> dict:
     """Run the soak and return its figures (JSON-able)."""
-    from tqdm.auto import tqdm
+    from scenarios.experiments.progress import progress_bar
 
     sc = load_named(scenario)
     if sc.spatial is None:
@@ -58,7 +58,7 @@ def soak(
         "sets": n_sets,
         "rounds": rounds_total,
     }
-    bar = tqdm(total=rounds_total, desc=f"soak {scen.name}", unit="round", disable=not progress)
+    bar = progress_bar(rounds_total, f"soak {scen.name}", "round", progress)
     count = {"rounds": 0}
 
     def on_round() -> None:

@@ -104,15 +104,13 @@ def _run(sweep: SweepSpec, out: Path, workers, client, progress: bool) -> list[d
 
 def _execute_all(sweep: SweepSpec, todo, fh, workers, client, progress) -> dict:
     """Run the missing specs; append each row to ``fh`` the moment it is known."""
-    from tqdm.auto import tqdm
+    from scenarios.experiments.progress import progress_bar
 
     writer = csv.writer(fh, lineterminator="\n")
     fresh: dict[tuple[str, ...], list[str]] = {}
     skipped = len(sweep.runs) - len(todo)
     desc = f"sweep {sweep.name}" + (f" ({skipped} done before)" if skipped else "")
-    bar = tqdm(
-        total=len(todo), desc=desc, unit="run", disable=not (progress and todo), dynamic_ncols=True
-    )
+    bar = progress_bar(len(todo), desc, "run", progress and bool(todo))
 
     def record(key, run, metrics: dict[str, str]) -> None:
         row = sweep.key_row(run) + [metrics[c] for c in sweep.metric_columns]

@@ -46,14 +46,20 @@ def bundled_toml(folder: str = "") -> list[str]:
 
 
 def locate(name_or_path: str | Path, folder: str = "") -> Path | None:
-    """A path as given (it ends in .toml, exists or has a '/'), else the bundled file of that
-    name in ``scenarios/data/<folder>``; None when there is no such bundled file."""
+    """An existing file as given; else the bundled file of that name in
+    ``scenarios/data/<folder>``; else the path as given if it looks like one (ends in .toml or
+    has a '/': reading it then names the problem); None otherwise. A folder named like a
+    bundled scenario (``mrta reproduce --out paper``) never shadows it."""
     text = str(name_or_path)
     candidate = Path(text)
-    if candidate.suffix == ".toml" or candidate.exists() or "/" in text:
+    if candidate.is_file():
         return candidate
     bundled = _data(folder) / f"{text}.toml"
-    return Path(str(bundled)) if bundled.is_file() else None
+    if "/" not in text and bundled.is_file():
+        return Path(str(bundled))
+    if candidate.suffix == ".toml" or "/" in text or candidate.exists():
+        return candidate
+    return None
 
 
 def _data(folder: str):

@@ -106,3 +106,14 @@ def test_distance_cost_needs_spatial_scenario(capsys):
 def test_every_bundled_scenario_validates(capsys, name):
     code, out, _ = run_cli(capsys, "validate", name)
     assert code == 0 and ": ok: " in out
+
+
+def test_a_folder_named_like_a_bundled_scenario_does_not_shadow_it(tmp_path, monkeypatch):
+    """After `mrta reproduce --out paper` a folder `paper` exists; `paper` still means the
+    bundled scenario, while an existing TOML file of that name would be taken as given."""
+    from scenarios.loader import load_scenario
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "paper").mkdir()
+    assert load_scenario("paper").name == "paper"
+    assert main(["validate", "paper"]) == 0

@@ -1,7 +1,7 @@
 """The spatial world: differential-drive robots in a pymunk arena (SPEC §6).
 
 One ``pymunk.Space`` (no gravity, SI units, fixed step ``dt_s``, collision slop in metres) holds
-the arena walls, the static obstacles and the robots, which ``sim.drive.Motors`` drives with motor
+the arena walls, the static obstacles and the robots, which ``sim.motors.Motors`` drives with motor
 joints (never by writing body velocities, which would discard the contact solution).
 
 What runs at which rate:
@@ -48,8 +48,9 @@ import numpy as np
 import pymunk
 
 from sim.contacts import ContactMonitor
-from sim.drive import DiffDriveController, Motors
+from sim.drive import DiffDriveController
 from sim.jobs import BACKOFF_S, SPEED_BOUND, YIELD_TRIGGER_M, JobsMixin, _xy
+from sim.motors import Motors
 from sim.paths import PathFollower
 from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING

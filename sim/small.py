@@ -18,8 +18,9 @@ from math import atan2, cos, sqrt
 
 import numpy as np
 
-from sim.drive import AHEAD_DEG, ARC_MAX_RADIUS_M, CREEP_MPS, HEADING_GAIN, KEEP_RIGHT_GAIN
+from sim.drive import AHEAD_DEG, CREEP_MPS, HEADING_GAIN, KEEP_RIGHT_GAIN
 from sim.jobs import PROGRESS_M, RECOVERED_M, SPEED_BOUND, YIELD_TRIGGER_M
+from sim.motors import ARC_MAX_RADIUS_M
 from sim.paths import LOOKAHEAD_M
 from sim.recording import DRIVING, IDLE
 

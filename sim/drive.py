@@ -42,10 +42,13 @@ class DiffDriveController:
     Args:
         drive: the robot body and wheel limits.
         control_dt_s: the control period; the wheel-acceleration limit is applied per period.
+        dense_max: up to this many robots, pairs of neighbours come from one (m, m) distance
+            array; beyond, from a Verlet list (:meth:`neighbour_pairs`).
     """
 
-    def __init__(self, drive: DriveSpec, control_dt_s: float) -> None:
+    def __init__(self, drive: DriveSpec, control_dt_s: float, dense_max: int = DENSE_MAX) -> None:
         self.drive = drive
+        self.dense_max = dense_max
         self.half_base_m = drive.wheel_base_m / 2.0
         self.rim_max_mps = drive.max_wheel_speed_radps * drive.wheel_radius_m
         self.rim_step_mps = drive.max_wheel_accel_radps2 * drive.wheel_radius_m * control_dt_s
@@ -124,7 +127,7 @@ class DiffDriveController:
 
         The rule is applied to every pair closer than ``look_m`` = contact + 2 x the stopping
         distance from top speed: farther apart, both can stop from top speed within their half of
-        the gap, so no cap is needed. Up to ``DENSE_MAX`` robots the pairs come from one (m, m)
+        the gap, so no cap is needed. Up to ``dense_max`` robots the pairs come from one (m, m)
         distance array, beyond from a Verlet list (:meth:`neighbour_pairs`); then the formulas run
         over the pairs (i, k) in which i moves toward k, so a crowd costs what its close pairs
         cost, not m x m.
@@ -136,14 +139,14 @@ class DiffDriveController:
         Returns:
             (m,) capped speeds, (m,) index of the nearest robot ahead (-1: none), (m,) its
             centre distance (inf: none) and the least distance between two robots (0 when not
-            known: beyond ``DENSE_MAX`` robots). When no two robots are closer than ``look_m``
+            known: beyond ``dense_max`` robots). When no two robots are closer than ``look_m``
             the three arrays are None and that distance is at least ``look_m``.
         """
         m = len(v_mps)
         if m < 2:
             return None, None, None, np.inf
         look = self.look_m
-        if m <= DENSE_MAX:
+        if m <= self.dense_max:
             dist = np.abs(z - z[:, None])
             dist += self.diag_inf(m)  # a robot is infinitely far from itself
             apart = float(dist.min())

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.drive import DENSE_MAX
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.world import Completion
 
@@ -95,7 +94,7 @@ class JobsMixin:
             if queue.size:  # touching a robot that stands nearer the site: the site is taken,
                 # and working beside the robots already there counts as arrived
                 standing = (self.state_ != DRIVING) & ~self.yielding_
-                if len(z) <= DENSE_MAX:  # every queued robot against every standing one
+                if len(z) <= self.controller.dense_max:  # every queued robot, every standing one
                     zs = z[standing.nonzero()[0]]
                     nearer = np.abs(zs[None, :] - self.site_[queue, None]) < gap[queue, None]
                     nearer &= np.abs(zs[None, :] - z[queue, None]) <= self.reach_m_  # touching

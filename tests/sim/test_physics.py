@@ -12,8 +12,6 @@ import numpy as np
 import pytest
 
 import sim.contacts
-import sim.drive
-import sim.jobs
 import sim.physics
 from allocation.auction import MarketAllocator
 from allocation.costs import make_cost_model
@@ -419,7 +417,7 @@ def test_obstacle_caps_in_python_equal_the_array_version():
     assert (np.abs(theirs) < np.abs(v) - 0.1).sum() > 20  # many were capped
 
 
-def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatch):
+def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move():
     """Above DENSE_MAX robots the pairs come from a Verlet list (KD-tree pairs within look_m
     plus a skin, reused until a robot has moved half the skin): period after period it gives
     the same caps, robots in the way and distances as the all-pairs array, bit for bit."""
@@ -427,16 +425,15 @@ def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatc
     m = 160
     z = rng.uniform(0.0, 22.0, m) + 1j * rng.uniform(0.0, 22.0, m)
     th = rng.uniform(-np.pi, np.pi, m)
-    listed, dense = DiffDriveController(DriveSpec(), 0.1), DiffDriveController(DriveSpec(), 0.1)
+    listed = DiffDriveController(DriveSpec(), 0.1, dense_max=64)
+    dense = DiffDriveController(DriveSpec(), 0.1, dense_max=10**6)
     lists, binding, blocked = [], 0, 0
     for _ in range(40):
         v = rng.uniform(-0.5, 1.5, m) * (rng.random(m) < 0.7)
         v_prev = rng.uniform(-0.5, 1.5, m) * (rng.random(m) < 0.7)
         hc = np.exp(-1j * th)
-        monkeypatch.setattr(sim.drive, "DENSE_MAX", 64)
         ours = listed.proximity(z, hc, v, v_prev)
         lists.append(listed.verlet_z_)  # replaced when the list is rebuilt
-        monkeypatch.setattr(sim.drive, "DENSE_MAX", 10**6)
         theirs = dense.proximity(z, hc, v, v_prev)
         for a, b in zip(ours[:3], theirs[:3], strict=True):
             np.testing.assert_array_equal(a, b)
@@ -449,16 +446,15 @@ def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatc
     assert binding > 100 and blocked > 100  # caps bound and robots were in the way
 
 
-def test_robots_sent_to_one_site_work_beside_the_one_standing_on_it(control, monkeypatch):
+def test_robots_sent_to_one_site_work_beside_the_one_standing_on_it(control):
     """Three robots, one site: the first works on it, the others work touching a robot that
     stands nearer the site (the site is taken). With the pairs from the all-pairs array and from
     the neighbour list (as above 64 robots) the world commands the same wheels every period."""
     site = (12.0, 5.0)
     logs = []
     for dense_max in (64, 0):
-        monkeypatch.setattr(sim.drive, "DENSE_MAX", dense_max)
-        monkeypatch.setattr(sim.jobs, "DENSE_MAX", dense_max)
         world = PymunkWorld(scenario([(3.0, 5.0), (3.0, 7.5), (3.0, 2.5)], exec_s=60.0))
+        world.controller.dense_max = dense_max
         send(world, [0, 1, 2], [site] * 3)
         log = []
         for _ in range(250):

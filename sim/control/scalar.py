@@ -3,13 +3,18 @@
 For a handful of robots the cost of a numpy control period is the per-call overhead of about a
 hundred small array operations, not the arithmetic: the same law written per robot with Python
 floats and complex numbers is several times faster, and it skips what a robot does not need
-(one standing still costs a comparison). :class:`SmallTeamMixin` is that scalar twin of
-``PymunkWorld._control`` (``sim.physics``) and of the array parts of ``sim.jobs``: the same
-formulas (``sim.drive.DiffDriveController``, ``sim.paths.PathFollower``), the same order, the
-same event handlers; rare work (waypoint switches, arrivals, stuck checks, make-way) calls the
-array code. ``PymunkWorld`` uses it up to ``SMALL_TEAM`` robots; ``tests/sim/test_physics.py``
-runs the behaviour tests through both and checks that they command the same wheels period by
-period.
+(one standing still costs a comparison). :class:`ScalarControl` is that scalar twin of
+:class:`sim.control.array.ArrayControl`: the same formulas (``sim.drive.DiffDriveController``,
+``sim.paths.PathFollower``), the same order, the same event handlers (``sim.jobs.Jobs``); rare
+work (waypoint switches, arrivals, stuck checks, make-way) calls the array code.
+``tests/sim/test_physics.py`` runs the behaviour tests through both and checks that they command
+the same wheels period by period.
+
+It also skips what cannot change: it looks only at pairs with a steering robot (a standing robot
+has no speed to cap) and sleeps the proximity check until a steering robot could come within
+``look_m`` of another (every event wakes it), and it writes only the motors whose command changed
+(a robot stopped and staying stopped keeps its control body as it is: with ``max_bias = 0`` the
+joints match velocities only, so where that body stands does not matter).
 """
 
 from __future__ import annotations
@@ -18,43 +23,77 @@ from math import atan2, cos, sqrt
 
 import numpy as np
 
-from sim.drive import AHEAD_DEG, CREEP_MPS, HEADING_GAIN, KEEP_RIGHT_GAIN
-from sim.jobs import PROGRESS_M, RECOVERED_M, SPEED_BOUND, YIELD_TRIGGER_M
-from sim.motors import ARC_MAX_RADIUS_M
-from sim.paths import LOOKAHEAD_M
+from sim.drive import AHEAD_DEG, CREEP_MPS, HEADING_GAIN, KEEP_RIGHT_GAIN, DiffDriveController
+from sim.fleet import FleetState, Schedule
+from sim.jobs import PROGRESS_M, RECOVERED_M, SPEED_BOUND, YIELD_TRIGGER_M, Jobs
+from sim.motors import ARC_MAX_RADIUS_M, Motors
+from sim.paths import LOOKAHEAD_M, PathFollower
 from sim.recording import DRIVING, IDLE
 
-SMALL_TEAM = 24  # up to this many robots a control period runs per robot in Python
-_COS_AHEAD = float(np.cos(np.radians(AHEAD_DEG)))
+COS_AHEAD = float(np.cos(np.radians(AHEAD_DEG)))
 
 
-class SmallTeamMixin:
-    """Scalar control period (see the module docstring); arrays from ``PymunkWorld.reset``."""
+class ScalarControl:
+    """One control period of a small team, robot by robot in Python floats and complex numbers.
 
-    def _control_small(self, t: float) -> None:
-        motors, c, f = self.motors, self.controller, self.follower
+    Args:
+        fleet, schedule: the world's fleet state and schedule of checks (read and written).
+        jobs: task bookkeeping, called on events; it must keep the schedule's lists.
+        motors: the robots' bodies (poses read in one batch, changed commands written one by one).
+        follower: the robots' paths, with exact free widths (read as lists).
+        controller: the drive law's parameters.
+        arrive_tol_m: a robot this close to its site has arrived, m.
+        reach_m: robot centres closer than this are touching, m.
+    """
+
+    name = "scalar"
+    free_cap_m = np.inf  # reads the free widths as lists and never refines them: exact ones
+    keeps_lists = True
+
+    def __init__(
+        self,
+        *,
+        fleet: FleetState,
+        schedule: Schedule,
+        jobs: Jobs,
+        motors: Motors,
+        follower: PathFollower,
+        controller: DiffDriveController,
+        arrive_tol_m: float,
+        reach_m: float,
+    ) -> None:
+        self.fleet, self.schedule, self.jobs = fleet, schedule, jobs
+        self.motors, self.follower, self.controller = motors, follower, controller
+        self.arrive_tol_m, self.reach_m = arrive_tol_m, reach_m
+        m = len(fleet.state)
+        self.nobody = np.full(m, -1), np.full(m, np.inf)  # no robot in the way of any
+
+    def period(self, t: float) -> None:
+        """Read poses, advance tasks, steer, cap speeds, limit the wheels, write the motors."""
+        f, sch, jobs, c = self.fleet, self.schedule, self.jobs, self.controller
+        motors, fol = self.motors, self.follower
         rob = motors.read()
         zn, thn = rob["z"], rob["th"]
         hn = np.exp(1j * thn)
         zs, ths, hs = zn.tolist(), thn.tolist(), hn.tolist()
         m = len(zs)
-        self.moved_m_ += np.abs(zn - self.last_z_)
-        self.last_z_[:] = zn
-        self.last_th_[:] = thn
-        # ---- tasks: steering targets, progress, yield, arrival (sim.jobs._jobs) ----
-        state = self.state_list_  # state_ and the steered robots as lists, kept by _events
-        v0s = self.v_cmd_.tolist()  # speeds commanded last period
+        f.moved_m += np.abs(zn - f.last_z_m)
+        f.last_z_m[:] = zn
+        f.last_th_rad[:] = thn
+        # ---- tasks: steering targets, progress, yield, arrival (ArrayControl._steer) ----
+        state = sch.state_list  # the state and the steered robots as lists, kept by Jobs.refresh
+        v0s = f.v_cmd_mps.tolist()  # speeds commanded last period
         backing = []
-        if self.n_backoff_:
-            until, replan = self.backoff_until_s_.tolist(), self.replan_.tolist()
+        if sch.n_backoff:
+            until, replan = f.backoff_until_s.tolist(), f.replan.tolist()
             backing = [j for j in range(m) if state[j] == DRIVING and until[j] > t]
             for j in range(m):
                 if replan[j] and state[j] == DRIVING and until[j] <= t:
-                    self._replan(j, (zs[j].real, zs[j].imag), t)
-            state = self.state_list_
-        yielding = self.yielding_.tolist() if self.n_yield_ else None
+                    jobs.replan(j, (zs[j].real, zs[j].imag), t)
+            state = sch.state_list
+        yielding = f.yielding.tolist() if sch.n_yield else None
         go = [s == DRIVING for s in state]
-        steered = self.steer_list_
+        steered = sch.steer_list
         if backing:
             for j in backing:
                 go[j] = False
@@ -62,11 +101,11 @@ class SmallTeamMixin:
         v, w = [0.0] * m, [0.0] * m
         off = []  # robots beyond the free width of their path
         if steered:
-            tgt, unit_c, switch, beyond, free0, free1, after, corner2, seg_m = f.segment_lists()
+            tgt, unit_c, switch, beyond, free0, free1, after, corner2, seg_m = fol.segment_lists()
             gain, bias = c.align_gain_, c.align_bias_
             brake2 = 2.0 * c.brake_mps2
-            left_m, progress = self.left_m_, self.progress_m_.tolist()
-            until = self.yield_until_s_.tolist() if yielding is not None else None
+            left_m, progress = f.left_m, f.progress_m.tolist()
+            until = f.yield_until_s.tolist() if yielding is not None else None
             stops = []
             for j in steered:
                 z = zs[j]
@@ -74,9 +113,9 @@ class SmallTeamMixin:
                 gap = abs(d)
                 p = d * unit_c[j]
                 if gap < switch[j] or p.real < beyond[j]:  # next waypoint
-                    f.index[j] += 1
-                    f.load_one(j)
-                    f.refresh_list_entry(j)
+                    fol.index[j] += 1
+                    fol.load_one(j)
+                    fol.refresh_list_entry(j)
                     d = tgt[j] - z
                     gap = abs(d)
                     p = d * unit_c[j]
@@ -97,28 +136,28 @@ class SmallTeamMixin:
                     stops.append(j)
                     vj = wj = 0.0
                 elif go[j] and left < progress[j]:
-                    self.progress_m_[j] = left - PROGRESS_M
-                    self.t_progress_s_[j] = t
-                    if self.recovering_ and left < self.stuck_left_m_[j] - RECOVERED_M:
-                        self._recovered([j])  # got past where it last got stuck
+                    f.progress_m[j] = left - PROGRESS_M
+                    f.t_progress_s[j] = t
+                    if sch.recovering and left < f.stuck_left_m[j] - RECOVERED_M:
+                        jobs.recovered([j])  # got past where it last got stuck
                 v[j], w[j] = vj, wj
             for j in stops:
-                self._stop_yield(j, refresh=False)
+                jobs.stop_yield(j)
             if stops:
-                self._events()
-            if t > self.stuck_check_s_:
-                self._stuck(np.array(go), t)
-            if t >= self.site_check_s_:
-                self._arrive_small(zs, go, v, w, t)
+                jobs.refresh()
+            if t > sch.stuck_check_s:
+                jobs.check_stuck(np.array(go), t)
+            if t >= sch.site_check_s:
+                self._arrive(zs, go, v, w, t)
         for j in backing:
-            v[j], w[j] = self.backoff_cmd_[j].tolist()
-        self._clock(t)
+            v[j], w[j] = f.backoff_cmd[j].tolist()
+        jobs.end_due(t)
         # ---- other robots (sim.drive.DiffDriveController.proximity), obstacles ----
-        state = self.state_list_  # arrivals and ends of work may have changed it
-        if t >= self.prox_check_s_:
-            self._near_small(zn, zs, ths, hs, hn, state, v, v0s, w, t)
+        state = sch.state_list  # arrivals and ends of work may have changed it
+        if t >= sch.prox_check_s:
+            self._near(zn, zs, ths, hs, hn, state, v, v0s, w, t)
         else:
-            self.blocker_, self.near_ = self.nobody_
+            f.blocker, f.near_m = self.nobody
         if steered:  # heading out of the free width before it could stop (PathFollower.drifting)
             react, inv2a = c.react_s, c.inv2a_
             for j in steered:
@@ -128,10 +167,10 @@ class SmallTeamMixin:
                 if (side < free0[j] or side > free1[j]) and j not in off:
                     off.append(j)
         if off or backing:  # beyond the free width, or backing off blind: mind the obstacles
-            self._obstacle_caps_small(zs, hs, v, off + backing)
+            self.obstacle_caps(zs, hs, v, off + backing)
         # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----
         s, hb, top = c.rim_step_mps, c.half_base_m, c.rim_max_mps
-        q0s = self.q_cmd_.tolist()
+        q0s = f.q_cmd_mps.tolist()
         write = motors.write_one
         moving = changed = False
         for j in range(m):
@@ -166,17 +205,15 @@ class SmallTeamMixin:
                 r, centre, vel = 0.0, z, vj * h
             write(j, centre.real, centre.imag, ths[j], vel.real, vel.imag, wj, r)
         if changed:
-            self.v_cmd_, self.q_cmd_ = np.array(v), np.array(q0s)
-        calm = not (self.n_steer_ or self.n_backoff_ or moving)
-        self.resting_, self.calm_ = calm and self.calm_, calm
-        if self.recorder is not None:
-            self.recorder.poses(t, motors.flat[:, :2], thn, self.state_)
+            f.v_cmd_mps, f.q_cmd_mps = np.array(v), np.array(q0s)
+        calm = not (sch.n_steer or sch.n_backoff or moving)
+        sch.resting, sch.calm = calm and sch.calm, calm
 
-    def _arrive_small(self, zs, go, v, w, t: float) -> None:
-        """``sim.jobs._arrive``, robot by robot."""
-        tol, reach = self.spatial.arrive_tol_m, self.reach_m_
+    def _arrive(self, zs, go, v, w, t: float) -> None:
+        """``ArrayControl._arrive``, robot by robot."""
+        f, tol, reach = self.fleet, self.arrive_tol_m, self.reach_m
         zone = tol + 2 * reach
-        site = self.site_.tolist()
+        site = f.site.tolist()
         nearest, arrived, queue = np.inf, [], []
         for j in range(len(zs)):
             if go[j]:
@@ -189,9 +226,9 @@ class SmallTeamMixin:
         if queue:  # touching a robot that stands nearer the site: the site is taken,
             # and working beside the robots already there counts as arrived
             near, state, yielding = (
-                self.near_.tolist(),
-                self.state_.tolist(),
-                self.yielding_.tolist(),
+                f.near_m.tolist(),
+                f.state.tolist(),
+                f.yielding.tolist(),
             )
             still = [k for k in range(len(zs)) if state[k] != DRIVING and not yielding[k]]
             for j, gap in queue:
@@ -200,12 +237,17 @@ class SmallTeamMixin:
                 ):
                     arrived.append(j)
             arrived.sort()
-        self._start_work(arrived, v, w, t)
+        self.jobs.start_work(arrived, v, w, t)
         speed = SPEED_BOUND * self.controller.v_max_mps
-        self.site_check_s_ = t + max(nearest - zone, 0.0) / speed
+        self.schedule.site_check_s = t + max(nearest - zone, 0.0) / speed
 
-    def _obstacle_caps_small(self, zs, hs, v, rows) -> None:
-        """``PymunkWorld._obstacle_caps`` (``DiffDriveController.wall_cap``), robot by robot."""
+    def obstacle_caps(self, zs, hs, v, rows) -> None:
+        """``ArrayControl.obstacle_caps`` (``DiffDriveController.wall_cap``), robot by robot.
+
+        Args:
+            zs: positions; hs: unit headings (lists of complex); v: speed commands (a list, m/s,
+                written in place); rows: the robots to cap.
+        """
         c, to_obstacle = self.controller, self.follower.to_obstacle_one
         two_a, at, at2 = 1.0 / c.inv2a_, c.at_, c.at2_
         for j in rows:
@@ -224,19 +266,19 @@ class SmallTeamMixin:
             if cap < abs(vj):
                 v[j] = cap if vj > 0.0 else -cap
 
-    def _near_small(self, zn, zs, ths, hs, hn, state, v, vprev, w, t: float) -> None:
+    def _near(self, zn, zs, ths, hs, hn, state, v, vprev, w, t: float) -> None:
         """Proximity caps, keep-right and make-way, over the pairs (i, k) with i steering.
 
         Only a robot that steers (drives, yields or backs off) can be capped, turn right or ask
         another to make way: a standing robot has no speed to cap, so its pairs are not looked
         at (the result is the same as over all pairs). When every steering robot is farther
         than ``look_m`` from every other robot the check sleeps until one could be that close;
-        a robot that starts to steer is an event (``_events``), which wakes it.
+        a robot that starts to steer is an event (``Jobs.refresh``), which wakes it.
         """
-        c = self.controller
+        f, sch, c = self.fleet, self.schedule, self.controller
         m = len(zs)
         look = c.look_m
-        movers = self.steer_list_  # driving (backing off too) or yielding
+        movers = sch.steer_list  # driving (backing off too) or yielding
         pairs, apart, inf = [], np.inf, np.inf
         for i in movers:
             zi = zs[i]
@@ -247,8 +289,8 @@ class SmallTeamMixin:
             else:
                 apart = min(apart, min(dist))
         if not pairs:  # no cap binds before a steering robot could be look_m from another
-            self.prox_check_s_ = t + (apart - look) / (2.0 * SPEED_BOUND * c.v_max_mps)
-            self.blocker_, self.near_ = self.nobody_
+            sch.prox_check_s = t + (apart - look) / (2.0 * SPEED_BOUND * c.v_max_mps)
+            f.blocker, f.near_m = self.nobody
             return
         contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
         two_a, credit = 1.0 / inv2a, 0.5 / c.wheel_decel_
@@ -281,12 +323,12 @@ class SmallTeamMixin:
             cap = floor if cap < floor else cap
             if cap < limit[i]:
                 limit[i] = cap
-            if toward > _COS_AHEAD and d < near[i]:
+            if toward > COS_AHEAD and d < near[i]:
                 near[i], blocker[i] = d, k
         for j in movers:
             if limit[j] < abs(v[j]):
                 v[j] = limit[j] if v[j] > 0.0 else -limit[j]
-        self.blocker_, self.near_ = np.array(blocker), np.array(near)
+        f.blocker, f.near_m = np.array(blocker), np.array(near)
         closest = min(near)
         if closest < c.keep_right_m:
             turn = KEEP_RIGHT_GAIN * c.omega_max_radps
@@ -295,9 +337,9 @@ class SmallTeamMixin:
                 if near[j] < c.keep_right_m:
                     if not (state[o] == DRIVING and cos(ths[j] - ths[o]) > 0.5):
                         w[j] -= turn
-        reach = self.reach_m_ + YIELD_TRIGGER_M
+        reach = self.reach_m + YIELD_TRIGGER_M
         if closest < reach:
-            yielding = self.yielding_.tolist()
+            yielding = f.yielding.tolist()
             pushers = [
                 j
                 for j in movers
@@ -307,4 +349,4 @@ class SmallTeamMixin:
                 and not yielding[blocker[j]]
             ]
             if pushers:
-                self._make_way(np.array(pushers), self.blocker_, zn, hn, np.array(v), t)
+                self.jobs.make_way(np.array(pushers), f.blocker, zn, hn, np.array(v), t)

@@ -20,20 +20,26 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from sim.drive_law import (
+    COS_AHEAD,
+    COS_TURN,
+    HEADING_GAIN,
+    KEEP_RIGHT_GAIN,
+    KEEP_RIGHT_M,
+    PROXIMITY_DECEL,
+    REACT_PERIODS,
+    approach_cap_mps,
+    goes_our_way,
+    pair_share_m,
+    rim_speed_mps,
+    steer_speeds,
+    stopping_time_s,
+    twist_from_rims,
+)
 from sim.scenario import DriveSpec
 
-HEADING_GAIN = 2.5  # 1/s: omega command per radian of heading error
-TURN_IN_PLACE_RAD = np.pi / 3  # beyond this heading error the robot stops and turns
-CREEP_MPS = 0.15  # closing speed still allowed on contact: robots may nudge, never ram
-KEEP_RIGHT_M = 0.6  # gap below which a robot turns right around a robot not going its way
-KEEP_RIGHT_GAIN = 0.25  # that turn, as a share of the top turn rate
-PROXIMITY_DECEL = 0.75  # share of the wheels' braking power planned for around robots and walls
-REACT_PERIODS = 1.0  # a command holds for this many control periods before the next can brake
 DENSE_MAX = 64  # up to this many robots the neighbour search is one (m, m) array
 VERLET_SKIN_M = 1.0  # beyond DENSE_MAX: the neighbour list holds pairs this much beyond look_m
-AHEAD_DEG = 70.0  # a robot within this angle of the direction of travel is in the way
-_COS_TURN = float(np.cos(TURN_IN_PLACE_RAD))
-_COS_AHEAD = float(np.cos(np.radians(AHEAD_DEG)))
 
 
 class DiffDriveController:
@@ -63,9 +69,10 @@ class DiffDriveController:
         self.look_m = self.contact_m + 2.0 * stop_m  # farther apart, no speed cap can bind
         self.keep_right_m = self.contact_m + KEEP_RIGHT_M
         # v = v_max * clip((cos(err) - cos_turn) / (1 - cos_turn), 0, 1) as one affine map
-        self.align_gain_ = self.v_max_mps / (1.0 - _COS_TURN)
-        self.align_bias_ = -_COS_TURN * self.align_gain_
+        self.align_gain_ = self.v_max_mps / (1.0 - COS_TURN)
+        self.align_bias_ = -COS_TURN * self.align_gain_
         self.at_, self.at2_, self.inv2a_ = a * t, (a * t) ** 2, 0.5 / a
+        self.two_a_ = 1.0 / self.inv2a_
         self.wheel_decel_ = drive.max_wheel_accel_radps2 * drive.wheel_radius_m
         self.diag_ = np.zeros((0, 0))
         self.verlet_z_ = np.zeros(0, dtype=complex)  # positions when the Verlet list was built
@@ -85,26 +92,19 @@ class DiffDriveController:
         """
         local = delta * hc
         err = np.arctan2(local.imag, local.real)
-        v = np.cos(err)
-        v *= self.align_gain_
-        v += self.align_bias_
+        gain, bias, brake2 = self.align_gain_, self.align_bias_, 2.0 * self.brake_mps2
+        v, stop = steer_speeds(np.cos(err), gap_m, corner2, gain, bias, brake2, np.sqrt)
         np.maximum(v, 0.0, out=v)
-        stop = gap_m * (2.0 * self.brake_mps2)
-        stop += corner2
-        np.minimum(v, np.sqrt(stop, out=stop), out=v)
+        np.minimum(v, stop, out=v)
         err *= HEADING_GAIN
         return v, err
 
     def _cap(self, share: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Top speed that covers at most ``share`` toward an obstacle at bearing cosine ``tau``
         (> 0) when held for the reaction time and then braked at ``yield_mps2``; at least the
-        creep speed toward it."""
-        cap = share / tau
-        cap *= 1.0 / self.inv2a_
-        cap += self.at2_
-        np.sqrt(cap, out=cap)
-        cap -= self.at_
-        return np.maximum(cap, CREEP_MPS / tau, out=cap)
+        creep speed toward it (:func:`sim.drive_law.approach_cap_mps`)."""
+        cap, creep = approach_cap_mps(share, tau, self.two_a_, self.at_, self.at2_, np.sqrt)
+        return np.maximum(cap, creep, out=cap)
 
     def proximity(
         self, z: np.ndarray, hc: np.ndarray, v_mps: np.ndarray, v_prev_mps: np.ndarray
@@ -180,24 +180,20 @@ class DiffDriveController:
         away = np.minimum(back, 0.0)  # k moves away: it would brake over away^2 / 2 a_wheel
         np.maximum(back, 0.0, out=back)
         # stopping distances toward each other at the committed speeds (one period, then a)
-        stop = np.abs(v_prev_mps)
-        stop *= self.inv2a_
-        stop += self.react_s  # per robot: distance along its heading per m/s of its speed
+        stop = stopping_time_s(v_prev_mps, self.react_s, self.inv2a_)  # per m/s, per robot
         their = back * stop[k]
         their -= away * away * (0.5 / self.wheel_decel_)
         np.maximum(mine, 0.0, out=mine)
         mine *= stop[i]
         # i keeps the gap less k's stopping distance less k's half of the room left over:
         # min(g - their, (g - their + mine) / 2), never below 0
-        share = np.subtract(gap, their, out=their)
-        mine += share
-        mine *= 0.5
-        np.minimum(share, mine, out=share)
+        share, half = pair_share_m(gap, their, mine)
+        np.minimum(share, half, out=share)
         np.maximum(share, 0.0, out=share)
         limit = np.full(m, np.inf)
         np.minimum.at(limit, i, self._cap(share, np.maximum(toward, 1e-9)))
         # the robot in the way: the nearest ahead, the lowest index among equally near ones
-        ahead = (toward > _COS_AHEAD).nonzero()[0]
+        ahead = (toward > COS_AHEAD).nonzero()[0]
         near = np.full(m, np.inf)
         np.minimum.at(near, i[ahead], dist[ahead])
         first = ahead[dist[ahead] == near[i[ahead]]]
@@ -228,7 +224,7 @@ class DiffDriveController:
                 :meth:`proximity`; moving: (m,) bool, robots that drive on their own.
         """
         other = np.maximum(blocker, 0)
-        same_way = np.cos(th - th[other]) > 0.5
+        same_way = goes_our_way(th, th[other], np.cos)
         same_way &= moving[other]
         veer = near < self.keep_right_m  # near is finite only where there is a blocker
         veer &= ~same_way
@@ -276,7 +272,7 @@ class DiffDriveController:
         """
         s = self.rim_step_mps
         q1 = omega_radps * self.half_base_m
-        over = np.abs(v_mps) + np.abs(q1)
+        over = rim_speed_mps(v_mps, q1)
         over *= 1.0 / self.rim_max_mps
         np.maximum(over, 1.0, out=over)  # the faster wheel at most at top speed
         dv = v_mps / over
@@ -292,10 +288,5 @@ class DiffDriveController:
             np.minimum(np.maximum(dq, -room, out=dq), room, out=dq)
             np.copyto(right, dv + dq, where=brake)
             np.copyto(left, dv - dq, where=brake)
-        v = right + left
-        v *= 0.5
-        v += v0
-        q = right - left
-        q *= 0.5
-        q += q0
+        v, q = twist_from_rims(right, left, v0, q0)
         return v, q * (1.0 / self.half_base_m), q

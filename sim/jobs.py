@@ -27,7 +27,6 @@ YIELD_STEP_M = 1.0  # how far an idle robot steps aside
 YIELD_TIMEOUT_S = 6.0
 DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
 PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
-SPEED_BOUND = 1.25  # no robot moves faster than this times the top speed, even when pushed
 
 
 class Jobs:

@@ -18,9 +18,9 @@ import pymunk
 import pymunk.batch as pb
 from pymunk._chipmunk_cffi import ffi, lib
 
+from sim.drive_law import control_body, on_arc
 from sim.scenario import DriveSpec
 
-ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
 _IO = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
 _IO |= pb.BodyFields.ANGULAR_VELOCITY  # 6 floats per body: x, y, angle, vx, vy, omega
 # the same 6 floats as one record: position and velocity as complex numbers
@@ -116,14 +116,12 @@ class Motors:
         buffer (the last :meth:`read`) are written back unchanged.
         """
         v, w = v_mps, omega_radps
-        arc = np.abs(v) < np.abs(w) * ARC_MAX_RADIUS_M
         radius = self.radius_
         radius.fill(0.0)
-        np.divide(v, w, out=radius, where=arc)
+        np.divide(v, w, out=radius, where=on_arc(v, w))
         ctl = self.ctl
-        ctl["z"] = radius * (1j * h) + z
+        ctl["z"], ctl["vel"] = control_body(z, h, v, w, radius)  # vel is zero on an arc
         ctl["th"] = th
-        ctl["vel"] = (v - w * radius) * h  # zero on an arc: the control body only turns
         ctl["w"] = w
         changed = (self.anchor_ != radius).nonzero()[0]
         if changed.size:

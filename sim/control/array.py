@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from sim.drive import DiffDriveController
+from sim.drive_law import SPEED_BOUND, next_check_s
 from sim.fleet import FleetState, Schedule
-from sim.jobs import PROGRESS_M, RECOVERED_M, SPEED_BOUND, YIELD_TRIGGER_M, Jobs
+from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M, Jobs
 from sim.motors import Motors
 from sim.paths import PathFollower
 from sim.recording import DRIVING, IDLE
@@ -165,15 +166,15 @@ class ArrayControl:
             self.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
         nearest = float(np.where(go, gap, np.inf).min()) - zone
         speed = SPEED_BOUND * self.controller.v_max_mps
-        self.schedule.site_check_s = t + max(nearest, 0.0) / speed
+        self.schedule.site_check_s = next_check_s(t, nearest, speed)
 
     def _near(self, z, th, h, hc, v, w, t: float) -> None:
         """Proximity caps, keep-right and make-way (writes ``v``, ``w`` in place)."""
         f, c = self.fleet, self.controller
         cap, blocker, near, apart = c.proximity(z, hc, v, f.v_cmd_mps)
         if cap is None:  # no cap binds before two robots could be look_m apart
-            gap = apart - c.look_m
-            self.schedule.prox_check_s = t + gap / (2.0 * SPEED_BOUND * c.v_max_mps)
+            closing = 2.0 * SPEED_BOUND * c.v_max_mps
+            self.schedule.prox_check_s = next_check_s(t, apart - c.look_m, closing)
             f.blocker, f.near_m = self.nobody
             return
         v[:] = cap

@@ -23,14 +23,28 @@ from math import atan2, cos, sqrt
 
 import numpy as np
 
-from sim.drive import AHEAD_DEG, CREEP_MPS, HEADING_GAIN, KEEP_RIGHT_GAIN, DiffDriveController
+from sim.drive import DiffDriveController
+from sim.drive_law import (
+    COS_AHEAD,
+    HEADING_GAIN,
+    KEEP_RIGHT_GAIN,
+    SPEED_BOUND,
+    approach_cap_mps,
+    control_body,
+    goes_our_way,
+    next_check_s,
+    on_arc,
+    pair_share_m,
+    rim_speed_mps,
+    steer_speeds,
+    stopping_time_s,
+    twist_from_rims,
+)
 from sim.fleet import FleetState, Schedule
-from sim.jobs import PROGRESS_M, RECOVERED_M, SPEED_BOUND, YIELD_TRIGGER_M, Jobs
-from sim.motors import ARC_MAX_RADIUS_M, Motors
+from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M, Jobs
+from sim.motors import Motors
 from sim.paths import LOOKAHEAD_M, PathFollower
 from sim.recording import DRIVING, IDLE
-
-COS_AHEAD = float(np.cos(np.radians(AHEAD_DEG)))
 
 
 class ScalarControl:
@@ -126,8 +140,7 @@ class ScalarControl:
                     off.append(j)
                 local = aim * hs[j].conjugate()
                 err = atan2(local.imag, local.real)
-                vj = cos(err) * gain + bias
-                stop = sqrt(gap * brake2 + corner2[j])
+                vj, stop = steer_speeds(cos(err), gap, corner2[j], gain, bias, brake2, sqrt)
                 vj = 0.0 if vj < 0.0 else (stop if stop < vj else vj)
                 wj = err * HEADING_GAIN
                 left = gap + after[j]
@@ -163,7 +176,7 @@ class ScalarControl:
             for j in steered:
                 sj = v[j] if abs(v[j]) >= abs(v0s[j]) else v0s[j]
                 side = ((tgt[j] - zs[j]) * unit_c[j]).imag
-                side -= (hs[j] * unit_c[j]).imag * (sj * (react + abs(sj) * inv2a))
+                side -= (hs[j] * unit_c[j]).imag * (sj * stopping_time_s(sj, react, inv2a))
                 if (side < free0[j] or side > free1[j]) and j not in off:
                     off.append(j)
         if off or backing:  # beyond the free width, or backing off blind: mind the obstacles
@@ -178,7 +191,7 @@ class ScalarControl:
             if vj == 0.0 and q1 == 0.0 and v0 == 0.0 and q0 == 0.0:
                 continue  # stopped and staying so: its control body stands, anywhere will do
             changed = True
-            over = (abs(vj) + abs(q1)) / top
+            over = rim_speed_mps(vj, q1) / top
             if over > 1.0:
                 vj, q1 = vj / over, q1 / over
             dv, dq = vj - v0, q1 - q0
@@ -191,17 +204,15 @@ class ScalarControl:
                 right, left = dv + dq, dv - dq
                 right = s if right > s else (-s if right < -s else right)
                 left = s if left > s else (-s if left < -s else left)
-            vj = (right + left) * 0.5 + v0
-            qj = (right - left) * 0.5 + q0
+            vj, qj = twist_from_rims(right, left, v0, q0)
             wj = qj * (1.0 / hb)
             v[j], w[j], q0s[j] = vj, wj, qj
             moving = moving or vj != 0.0 or wj != 0.0
             z, h = zs[j], hs[j]
-            if abs(vj) < abs(wj) * ARC_MAX_RADIUS_M:
+            if on_arc(vj, wj):
                 r = vj / wj
-                centre = r * (1j * h) + z
-                vel = (vj - wj * r) * h
-            else:
+                centre, vel = control_body(z, h, vj, wj, r)
+            else:  # straight (or standing): the control body on the robot, moving at v h
                 r, centre, vel = 0.0, z, vj * h
             write(j, centre.real, centre.imag, ths[j], vel.real, vel.imag, wj, r)
         if changed:
@@ -239,7 +250,7 @@ class ScalarControl:
             arrived.sort()
         self.jobs.start_work(arrived, v, w, t)
         speed = SPEED_BOUND * self.controller.v_max_mps
-        self.schedule.site_check_s = t + max(nearest - zone, 0.0) / speed
+        self.schedule.site_check_s = next_check_s(t, nearest - zone, speed)
 
     def obstacle_caps(self, zs, hs, v, rows) -> None:
         """``ArrayControl.obstacle_caps`` (``DiffDriveController.wall_cap``), robot by robot.
@@ -249,7 +260,7 @@ class ScalarControl:
                 written in place); rows: the robots to cap.
         """
         c, to_obstacle = self.controller, self.follower.to_obstacle_one
-        two_a, at, at2 = 1.0 / c.inv2a_, c.at_, c.at2_
+        two_a, at, at2 = c.two_a_, c.at_, c.at2_
         for j in rows:
             vj = v[j]
             if vj == 0.0:  # nothing to cap
@@ -260,8 +271,7 @@ class ScalarControl:
             tau = -tau if vj < 0.0 else tau
             tau = tau if tau > 1e-9 else 1e-9
             share = dist - c.radius_m if dist > c.radius_m else 0.0
-            cap = sqrt(share / tau * two_a + at2) - at
-            floor = CREEP_MPS / tau
+            cap, floor = approach_cap_mps(share, tau, two_a, at, at2, sqrt)
             cap = floor if cap < floor else cap
             if cap < abs(vj):
                 v[j] = cap if vj > 0.0 else -cap
@@ -289,11 +299,11 @@ class ScalarControl:
             else:
                 apart = min(apart, min(dist))
         if not pairs:  # no cap binds before a steering robot could be look_m from another
-            sch.prox_check_s = t + (apart - look) / (2.0 * SPEED_BOUND * c.v_max_mps)
+            sch.prox_check_s = next_check_s(t, apart - look, 2.0 * SPEED_BOUND * c.v_max_mps)
             f.blocker, f.near_m = self.nobody
             return
         contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
-        two_a, credit = 1.0 / inv2a, 0.5 / c.wheel_decel_
+        two_a, credit = c.two_a_, 0.5 / c.wheel_decel_
         limit, near, blocker = [np.inf] * m, [np.inf] * m, [-1] * m
         for i, k, d, r in pairs:
             vi = v[i]
@@ -308,18 +318,16 @@ class ScalarControl:
             back = -(r * hs[k].conjugate()).real / d * vk if vk else 0.0  # k coming closer
             gap = d - contact if d > contact else 0.0
             if back > 0.0:  # k's stopping distance toward i at its committed speed
-                their = back * (react + abs(vk) * inv2a)
+                their = back * stopping_time_s(vk, react, inv2a)
             else:  # k moves away: the distance it still travels while braking
                 their = -back * back * credit
             vi0 = vprev[i]
             mine = cos_i * vi0  # how fast i comes closer to k, and its stopping distance
-            mine = mine * (react + abs(vi0) * inv2a) if mine > 0.0 else 0.0
-            share = gap - their  # i keeps g - theirs less k's half of the room left over
-            half = 0.5 * (share + mine)
+            mine = mine * stopping_time_s(vi0, react, inv2a) if mine > 0.0 else 0.0
+            share, half = pair_share_m(gap, their, mine)  # g - theirs less k's half of the rest
             share = half if half < share else share
             share = share if share > 0.0 else 0.0
-            cap = sqrt(share / toward * two_a + at2) - at
-            floor = CREEP_MPS / toward
+            cap, floor = approach_cap_mps(share, toward, two_a, at, at2, sqrt)
             cap = floor if cap < floor else cap
             if cap < limit[i]:
                 limit[i] = cap
@@ -335,7 +343,7 @@ class ScalarControl:
             for j in movers:
                 o = blocker[j]
                 if near[j] < c.keep_right_m:
-                    if not (state[o] == DRIVING and cos(ths[j] - ths[o]) > 0.5):
+                    if not (state[o] == DRIVING and goes_our_way(ths[j], ths[o], cos)):
                         w[j] -= turn
         reach = self.reach_m + YIELD_TRIGGER_M
         if closest < reach:

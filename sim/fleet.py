@@ -52,6 +52,8 @@ class FleetState:
         last_z_m: complex, positions read at the last control period, m.
         last_th_rad: headings read then, rad.
         moved_m: distance driven since reset, m.
+        nobody: (-1 for every robot, inf for every robot), never written: ``blocker`` and
+            ``near_m`` while no robot is in any robot's way (:meth:`clear_way`).
     """
 
     state: np.ndarray
@@ -80,6 +82,7 @@ class FleetState:
     last_z_m: np.ndarray
     last_th_rad: np.ndarray
     moved_m: np.ndarray
+    nobody: tuple[np.ndarray, np.ndarray]
 
     @classmethod
     def at_start(cls, starts_xy_m: np.ndarray) -> FleetState:
@@ -113,7 +116,12 @@ class FleetState:
             last_z_m=site.copy(),
             last_th_rad=np.zeros(m),
             moved_m=np.zeros(m),
+            nobody=(np.full(m, -1), np.full(m, np.inf)),
         )
+
+    def clear_way(self) -> None:
+        """No robot is in any robot's way (``blocker`` -1, ``near_m`` inf for all)."""
+        self.blocker, self.near_m = self.nobody
 
 
 @dataclass(slots=True, eq=False)

@@ -47,7 +47,7 @@ import numpy as np
 import pymunk
 
 from sim.contacts import ContactMonitor
-from sim.control import CONTROLS, control_kind
+from sim.control import CONTROLS, ControlParts, control_kind
 from sim.drive import DiffDriveController
 from sim.fleet import Clock, FleetState, Schedule
 from sim.jobs import Jobs
@@ -137,16 +137,17 @@ class PymunkWorld:
             rng,
             kind.keeps_lists,
         )
-        self.control = kind(
-            fleet=self.fleet,
-            schedule=self.schedule,
-            jobs=self.jobs,
-            motors=self.motors,
-            follower=self.follower,
-            controller=self.controller,
-            arrive_tol_m=sp.arrive_tol_m,
-            reach_m=self.reach_m_,
+        parts = ControlParts(
+            self.fleet,
+            self.schedule,
+            self.jobs,
+            self.motors,
+            self.follower,
+            self.controller,
+            sp.arrive_tol_m,
+            self.reach_m_,
         )
+        self.control = kind(parts)
 
     @property
     def contacts_max_overlap_m(self) -> float:

@@ -1,11 +1,20 @@
 """The control period of the pymunk world, twice: over numpy arrays and robot by robot.
 
-``interface`` holds the :class:`Control` protocol, the registry of implementations by name and
-the ``"auto"`` choice; ``array`` and ``scalar`` are the two implementations.
+``protocol`` says what a control period is and what it works on, ``array`` and ``scalar`` are
+its two implementations, ``registry`` names them and makes the ``"auto"`` choice.
 """
 
 from sim.control.array import ArrayControl
-from sim.control.interface import CONTROLS, SMALL_TEAM, Control, control_kind
+from sim.control.protocol import Control, ControlParts
+from sim.control.registry import CONTROLS, SMALL_TEAM, control_kind
 from sim.control.scalar import ScalarControl
 
-__all__ = ["CONTROLS", "SMALL_TEAM", "ArrayControl", "Control", "ScalarControl", "control_kind"]
+__all__ = [
+    "CONTROLS",
+    "SMALL_TEAM",
+    "ArrayControl",
+    "Control",
+    "ControlParts",
+    "ScalarControl",
+    "control_kind",
+]

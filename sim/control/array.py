@@ -8,57 +8,37 @@ schedule in ``sim.fleet``); per-robot Python runs on task events only (``sim.job
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from sim.drive import DiffDriveController
+from sim.control.protocol import ControlParts
 from sim.drive_law import SPEED_BOUND, next_check_s
-from sim.fleet import FleetState, Schedule
-from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M, Jobs
-from sim.motors import Motors
-from sim.paths import PathFollower
+from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M
 from sim.recording import DRIVING, IDLE
 
 FREE_CAP_M = 2.0  # free widths of side steps as far as this (the step is 1 m), then on demand
 
 
+@dataclass(frozen=True, slots=True, eq=False)
 class ArrayControl:
     """One control period of the whole fleet over numpy arrays.
 
     Args:
-        fleet, schedule: the world's fleet state and schedule of checks (read and written).
-        jobs: task bookkeeping, called on events.
-        motors: the robots' bodies (poses read and commands written in one batch each).
-        follower: the robots' paths.
-        controller: the vectorised drive law and its limits.
-        arrive_tol_m: a robot this close to its site has arrived, m.
-        reach_m: robot centres closer than this are touching, m.
+        parts: the world's state and collaborators; the motors are read and written in one
+            batch each.
     """
 
     name = "array"
     free_cap_m = FREE_CAP_M  # a side step's free widths exactly only when a robot gets that far
     keeps_lists = False
 
-    def __init__(
-        self,
-        *,
-        fleet: FleetState,
-        schedule: Schedule,
-        jobs: Jobs,
-        motors: Motors,
-        follower: PathFollower,
-        controller: DiffDriveController,
-        arrive_tol_m: float,
-        reach_m: float,
-    ) -> None:
-        self.fleet, self.schedule, self.jobs = fleet, schedule, jobs
-        self.motors, self.follower, self.controller = motors, follower, controller
-        self.arrive_tol_m, self.reach_m = arrive_tol_m, reach_m
-        m = len(fleet.state)
-        self.nobody = np.full(m, -1), np.full(m, np.inf)  # no robot in the way of any
+    parts: ControlParts
 
     def period(self, t: float) -> None:
         """Read poses, advance tasks, steer, cap speeds, limit the wheels, write the motors."""
-        f, sch, c, motors = self.fleet, self.schedule, self.controller, self.motors
+        p = self.parts
+        f, sch, c, motors = p.fleet, p.schedule, p.controller, p.motors
         rob = motors.read()
         z, th = rob["z"], rob["th"]
         h = np.exp(1j * th)
@@ -66,15 +46,15 @@ class ArrayControl:
         f.moved_m += np.abs(z - f.last_z_m)
         f.last_z_m[:] = z
         f.last_th_rad[:] = th
-        v, w, rows = self._steer(z, hc, t)
+        v, w, rows = self._steer(z, hc, t)  # rows: robots beyond the free width of their path
         if t >= sch.prox_check_s:
             self._near(z, th, h, hc, v, w, t)
         else:
-            f.blocker, f.near_m = self.nobody
+            f.clear_way()
         if sch.n_steer:  # ... and the robots whose heading could carry them out of it
             v_cmd = f.v_cmd_mps  # the speed next period lies between v_cmd and v
             reach = np.where(np.abs(v) >= np.abs(v_cmd), v, v_cmd)
-            rows = self.follower.drifting(z, h, reach, c.react_s, c.inv2a_)
+            rows = p.follower.drifting(z, h, reach, c.react_s, c.inv2a_)
         if sch.n_backoff:  # backing off blind, without a path: mind the obstacles too
             back = (f.backoff_until_s > t).nonzero()[0]
             rows = back if rows is None else np.union1d(rows, back)
@@ -90,7 +70,8 @@ class ArrayControl:
     def _steer(self, z: np.ndarray, hc: np.ndarray, t: float):
         """Advance every robot's task (progress, yield, stuck, arrival); desired twists and the
         robots beyond the free width of their path (None: not looked at)."""
-        f, sch, jobs = self.fleet, self.schedule, self.jobs
+        p = self.parts
+        f, sch, jobs = p.fleet, p.schedule, p.jobs
         off_path = None
         go = f.state == DRIVING
         steered = go | f.yielding if sch.n_yield else go
@@ -102,8 +83,8 @@ class ArrayControl:
             go = (f.state == DRIVING) & ~back
             steered = go | f.yielding
         if sch.n_steer if back is None else np.count_nonzero(steered):
-            aim, gap, left, corner2, off_path = self.follower.targets(z)
-            v, w = self.controller.steer(hc, aim, gap, corner2)
+            aim, gap, left, corner2, off_path = p.follower.targets(z)
+            v, w = p.controller.steer(hc, aim, gap, corner2)
             if back is not None or sch.n_steer < len(v):
                 v *= steered
                 w *= steered
@@ -138,7 +119,8 @@ class ArrayControl:
     def _arrive(self, z: np.ndarray, go: np.ndarray, v: np.ndarray, w: np.ndarray, t: float):
         """Robots at their site (or beside robots standing there) start work; schedule the next
         check for when the driving robot nearest its arrival zone could first be in it."""
-        f, tol, reach = self.fleet, self.arrive_tol_m, self.reach_m
+        p = self.parts
+        f, c, tol, reach = p.fleet, p.controller, p.arrive_tol_m, p.reach_m
         gap = np.abs(f.site - z)
         zone = tol + 2 * reach
         there = go & (gap <= zone)
@@ -148,13 +130,13 @@ class ArrayControl:
             if queue.size:  # touching a robot that stands nearer the site: the site is taken,
                 # and working beside the robots already there counts as arrived
                 standing = (f.state != DRIVING) & ~f.yielding
-                if len(z) <= self.controller.dense_max:  # every queued robot, every standing one
+                if len(z) <= c.dense_max:  # every queued robot, every standing one
                     zs = z[standing.nonzero()[0]]
                     nearer = np.abs(zs[None, :] - f.site[queue, None]) < gap[queue, None]
                     nearer &= np.abs(zs[None, :] - z[queue, None]) <= reach  # touching
                     there[queue] = nearer.any(axis=1)
                 else:  # ... against its neighbours only (look_m > reach_m)
-                    i, k = self.controller.neighbour_pairs(z)
+                    i, k = c.neighbour_pairs(z)
                     queued = np.zeros(len(z), dtype=bool)
                     queued[queue] = True
                     sel = (queued[i] & standing[k]).nonzero()[0]
@@ -163,31 +145,31 @@ class ArrayControl:
                     nearer &= np.abs(z[k] - z[i]) <= reach  # touching
                     there[queue] = False
                     there[i[nearer]] = True
-            self.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
+            p.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
         nearest = float(np.where(go, gap, np.inf).min()) - zone
-        speed = SPEED_BOUND * self.controller.v_max_mps
-        self.schedule.site_check_s = next_check_s(t, nearest, speed)
+        p.schedule.site_check_s = next_check_s(t, nearest, SPEED_BOUND * c.v_max_mps)
 
     def _near(self, z, th, h, hc, v, w, t: float) -> None:
         """Proximity caps, keep-right and make-way (writes ``v``, ``w`` in place)."""
-        f, c = self.fleet, self.controller
+        p = self.parts
+        f, c, reach = p.fleet, p.controller, p.reach_m + YIELD_TRIGGER_M
         cap, blocker, near, apart = c.proximity(z, hc, v, f.v_cmd_mps)
         if cap is None:  # no cap binds before two robots could be look_m apart
             closing = 2.0 * SPEED_BOUND * c.v_max_mps
-            self.schedule.prox_check_s = next_check_s(t, apart - c.look_m, closing)
-            f.blocker, f.near_m = self.nobody
+            p.schedule.prox_check_s = next_check_s(t, apart - c.look_m, closing)
+            f.clear_way()
             return
         v[:] = cap
         f.blocker, f.near_m = blocker, near
         closest = float(near.min())
         if closest < c.keep_right_m:
             w[:] = c.keep_right(th, w, blocker, near, f.state == DRIVING)
-        if closest < self.reach_m + YIELD_TRIGGER_M:
-            pushing = (f.state == DRIVING) & (near < self.reach_m + YIELD_TRIGGER_M)
+        if closest < reach:
+            pushing = (f.state == DRIVING) & (near < reach)
             standing = (f.state == IDLE) & ~f.yielding
             pushing &= standing[np.maximum(blocker, 0)]
             if np.count_nonzero(pushing):
-                self.jobs.make_way(pushing.nonzero()[0], blocker, z, h, v, t)
+                p.jobs.make_way(pushing.nonzero()[0], blocker, z, h, v, t)
 
     def obstacle_caps(self, z, hc, v, rows) -> None:
         """Cap the speed of robots ``rows`` toward their nearest obstacle (writes ``v``).
@@ -196,7 +178,7 @@ class ArrayControl:
             z: (m,) positions; hc: (m,) conjugate unit headings; v: (m,) speed commands, m/s.
         """
         rows = np.asarray(rows)
-        gap = self.follower.to_obstacle(z[rows])
-        capped = self.controller.wall_cap(hc[rows], np.asarray(v)[rows], gap)
+        gap = self.parts.follower.to_obstacle(z[rows])
+        capped = self.parts.controller.wall_cap(hc[rows], np.asarray(v)[rows], gap)
         for j, vj in zip(rows.tolist(), capped.tolist(), strict=True):
             v[j] = vj

@@ -4,11 +4,11 @@ For a handful of robots the cost of a numpy control period is the per-call overh
 hundred small array operations, not the arithmetic: the same law written per robot with Python
 floats and complex numbers is several times faster, and it skips what a robot does not need
 (one standing still costs a comparison). :class:`ScalarControl` is that scalar twin of
-:class:`sim.control.array.ArrayControl`: the same formulas (``sim.drive.DiffDriveController``,
-``sim.paths.PathFollower``), the same order, the same event handlers (``sim.jobs.Jobs``); rare
-work (waypoint switches, arrivals, stuck checks, make-way) calls the array code.
-``tests/sim/test_physics.py`` runs the behaviour tests through both and checks that they command
-the same wheels period by period.
+:class:`sim.control.array.ArrayControl`: the same formulas (``sim.drive_law``, called robot by
+robot), the same order, the same event handlers (``sim.jobs.Jobs``); rare work (waypoint
+switches, arrivals, stuck checks, make-way) calls the array code. ``tests/sim/test_control.py``
+runs both from copies of the same state and checks that they command the same wheels;
+``tests/sim/test_physics.py`` runs the behaviour tests through both.
 
 It also skips what cannot change: it looks only at pairs with a steering robot (a standing robot
 has no speed to cap) and sleeps the proximity check until a steering robot could come within
@@ -19,11 +19,12 @@ joints match velocities only, so where that body stands does not matter).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from math import atan2, cos, sqrt
 
 import numpy as np
 
-from sim.drive import DiffDriveController
+from sim.control.protocol import ControlParts
 from sim.drive_law import (
     COS_AHEAD,
     HEADING_GAIN,
@@ -40,52 +41,32 @@ from sim.drive_law import (
     stopping_time_s,
     twist_from_rims,
 )
-from sim.fleet import FleetState, Schedule
-from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M, Jobs
-from sim.motors import Motors
-from sim.paths import LOOKAHEAD_M, PathFollower
+from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M
+from sim.paths import LOOKAHEAD_M
 from sim.recording import DRIVING, IDLE
 
 
+@dataclass(frozen=True, slots=True, eq=False)
 class ScalarControl:
     """One control period of a small team, robot by robot in Python floats and complex numbers.
 
     Args:
-        fleet, schedule: the world's fleet state and schedule of checks (read and written).
-        jobs: task bookkeeping, called on events; it must keep the schedule's lists.
-        motors: the robots' bodies (poses read in one batch, changed commands written one by one).
-        follower: the robots' paths, with exact free widths (read as lists).
-        controller: the drive law's parameters.
-        arrive_tol_m: a robot this close to its site has arrived, m.
-        reach_m: robot centres closer than this are touching, m.
+        parts: the world's state and collaborators; its jobs must keep the schedule's lists,
+            its follower exact free widths (read as lists); the motors are read in one batch
+            and the changed commands written one by one.
     """
 
     name = "scalar"
     free_cap_m = np.inf  # reads the free widths as lists and never refines them: exact ones
     keeps_lists = True
 
-    def __init__(
-        self,
-        *,
-        fleet: FleetState,
-        schedule: Schedule,
-        jobs: Jobs,
-        motors: Motors,
-        follower: PathFollower,
-        controller: DiffDriveController,
-        arrive_tol_m: float,
-        reach_m: float,
-    ) -> None:
-        self.fleet, self.schedule, self.jobs = fleet, schedule, jobs
-        self.motors, self.follower, self.controller = motors, follower, controller
-        self.arrive_tol_m, self.reach_m = arrive_tol_m, reach_m
-        m = len(fleet.state)
-        self.nobody = np.full(m, -1), np.full(m, np.inf)  # no robot in the way of any
+    parts: ControlParts
 
     def period(self, t: float) -> None:
         """Read poses, advance tasks, steer, cap speeds, limit the wheels, write the motors."""
-        f, sch, jobs, c = self.fleet, self.schedule, self.jobs, self.controller
-        motors, fol = self.motors, self.follower
+        p = self.parts
+        f, sch, jobs, c = p.fleet, p.schedule, p.jobs, p.controller
+        motors, fol = p.motors, p.follower
         rob = motors.read()
         zn, thn = rob["z"], rob["th"]
         hn = np.exp(1j * thn)
@@ -170,7 +151,7 @@ class ScalarControl:
         if t >= sch.prox_check_s:
             self._near(zn, zs, ths, hs, hn, state, v, v0s, w, t)
         else:
-            f.blocker, f.near_m = self.nobody
+            f.clear_way()
         if steered:  # heading out of the free width before it could stop (PathFollower.drifting)
             react, inv2a = c.react_s, c.inv2a_
             for j in steered:
@@ -222,7 +203,8 @@ class ScalarControl:
 
     def _arrive(self, zs, go, v, w, t: float) -> None:
         """``ArrayControl._arrive``, robot by robot."""
-        f, tol, reach = self.fleet, self.arrive_tol_m, self.reach_m
+        p = self.parts
+        f, tol, reach = p.fleet, p.arrive_tol_m, p.reach_m
         zone = tol + 2 * reach
         site = f.site.tolist()
         nearest, arrived, queue = np.inf, [], []
@@ -248,9 +230,9 @@ class ScalarControl:
                 ):
                     arrived.append(j)
             arrived.sort()
-        self.jobs.start_work(arrived, v, w, t)
-        speed = SPEED_BOUND * self.controller.v_max_mps
-        self.schedule.site_check_s = next_check_s(t, nearest - zone, speed)
+        p.jobs.start_work(arrived, v, w, t)
+        speed = SPEED_BOUND * p.controller.v_max_mps
+        p.schedule.site_check_s = next_check_s(t, nearest - zone, speed)
 
     def obstacle_caps(self, zs, hs, v, rows) -> None:
         """``ArrayControl.obstacle_caps`` (``DiffDriveController.wall_cap``), robot by robot.
@@ -259,7 +241,7 @@ class ScalarControl:
             zs: positions; hs: unit headings (lists of complex); v: speed commands (a list, m/s,
                 written in place); rows: the robots to cap.
         """
-        c, to_obstacle = self.controller, self.follower.to_obstacle_one
+        c, to_obstacle = self.parts.controller, self.parts.follower.to_obstacle_one
         two_a, at, at2 = c.two_a_, c.at_, c.at2_
         for j in rows:
             vj = v[j]
@@ -285,7 +267,8 @@ class ScalarControl:
         than ``look_m`` from every other robot the check sleeps until one could be that close;
         a robot that starts to steer is an event (``Jobs.refresh``), which wakes it.
         """
-        f, sch, c = self.fleet, self.schedule, self.controller
+        p = self.parts
+        f, sch, c = p.fleet, p.schedule, p.controller
         m = len(zs)
         look = c.look_m
         movers = sch.steer_list  # driving (backing off too) or yielding
@@ -300,7 +283,7 @@ class ScalarControl:
                 apart = min(apart, min(dist))
         if not pairs:  # no cap binds before a steering robot could be look_m from another
             sch.prox_check_s = next_check_s(t, apart - look, 2.0 * SPEED_BOUND * c.v_max_mps)
-            f.blocker, f.near_m = self.nobody
+            f.clear_way()
             return
         contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
         two_a, credit = c.two_a_, 0.5 / c.wheel_decel_
@@ -345,7 +328,7 @@ class ScalarControl:
                 if near[j] < c.keep_right_m:
                     if not (state[o] == DRIVING and goes_our_way(ths[j], ths[o], cos)):
                         w[j] -= turn
-        reach = self.reach_m + YIELD_TRIGGER_M
+        reach = p.reach_m + YIELD_TRIGGER_M
         if closest < reach:
             yielding = f.yielding.tolist()
             pushers = [
@@ -357,4 +340,4 @@ class ScalarControl:
                 and not yielding[blocker[j]]
             ]
             if pushers:
-                self.jobs.make_way(np.array(pushers), f.blocker, zn, hn, np.array(v), t)
+                p.jobs.make_way(np.array(pushers), f.blocker, zn, hn, np.array(v), t)

@@ -14,7 +14,14 @@ import numpy as np
 import pytest
 
 from sim import drive_law as law
-from sim.control import CONTROLS, SMALL_TEAM, ArrayControl, ScalarControl, control_kind
+from sim.control import (
+    CONTROLS,
+    SMALL_TEAM,
+    ArrayControl,
+    ControlParts,
+    ScalarControl,
+    control_kind,
+)
 from sim.fleet import FleetState
 from sim.jobs import Jobs
 from sim.physics import PymunkWorld
@@ -67,17 +74,18 @@ def one_period(world: PymunkWorld, kind) -> tuple[FleetState, Jobs]:
         copy.deepcopy(world.jobs.rng),
         keep_lists=True,
     )
-    control = kind(
-        fleet=fleet,
-        schedule=schedule,
-        jobs=jobs,
-        motors=Probe(world.motors),
-        follower=follower,
-        controller=world.controller,
-        arrive_tol_m=world.spatial.arrive_tol_m,
-        reach_m=world.reach_m_,
+    motors = Probe(world.motors)
+    parts = ControlParts(
+        fleet,
+        schedule,
+        jobs,
+        motors,
+        follower,
+        world.controller,
+        world.spatial.arrive_tol_m,
+        world.reach_m_,
     )
-    control.period(world.time_s)
+    kind(parts).period(world.time_s)
     return fleet, jobs
 
 

@@ -272,50 +272,56 @@ class ScalarControl:
         m = len(zs)
         look = c.look_m
         movers = sch.steer_list  # driving (backing off too) or yielding
-        pairs, apart, inf = [], np.inf, np.inf
+        rows, apart, inf = [], np.inf, np.inf  # (i, z_i, distances from i) within look_m
         for i in movers:
             zi = zs[i]
             dist = [abs(z - zi) for z in zs]
             dist[i] = inf
-            if min(dist) < look:
-                pairs += [(i, k, d, zs[k] - zi) for k, d in enumerate(dist) if d < look]
-            else:
-                apart = min(apart, min(dist))
-        if not pairs:  # no cap binds before a steering robot could be look_m from another
+            nearest = min(dist)
+            if nearest < look:
+                rows.append((i, zi, dist))
+            elif nearest < apart:
+                apart = nearest
+        if not rows:  # no cap binds before a steering robot could be look_m from another
             sch.prox_check_s = next_check_s(t, apart - look, 2.0 * SPEED_BOUND * c.v_max_mps)
             f.clear_way()
             return
         contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
         two_a, credit = c.two_a_, 0.5 / c.wheel_decel_
         limit, near, blocker = [np.inf] * m, [np.inf] * m, [-1] * m
-        for i, k, d, r in pairs:
+        for i, zi, dist in rows:  # the pairs (i, k) closer than look_m, in order
             vi = v[i]
             if vi == 0.0:
                 continue
-            d = d if d > 1e-9 else 1e-9
-            cos_i = (r * hs[i].conjugate()).real / d
-            toward = -cos_i if vi < 0.0 else cos_i
-            if toward <= 0.0:
-                continue
-            vk = vprev[k]
-            back = -(r * hs[k].conjugate()).real / d * vk if vk else 0.0  # k coming closer
-            gap = d - contact if d > contact else 0.0
-            if back > 0.0:  # k's stopping distance toward i at its committed speed
-                their = back * stopping_time_s(vk, react, inv2a)
-            else:  # k moves away: the distance it still travels while braking
-                their = -back * back * credit
-            vi0 = vprev[i]
-            mine = cos_i * vi0  # how fast i comes closer to k, and its stopping distance
-            mine = mine * stopping_time_s(vi0, react, inv2a) if mine > 0.0 else 0.0
-            share, half = pair_share_m(gap, their, mine)  # g - theirs less k's half of the rest
-            share = half if half < share else share
-            share = share if share > 0.0 else 0.0
-            cap, floor = approach_cap_mps(share, toward, two_a, at, at2, sqrt)
-            cap = floor if cap < floor else cap
-            if cap < limit[i]:
-                limit[i] = cap
-            if toward > COS_AHEAD and d < near[i]:
-                near[i], blocker[i] = d, k
+            hci, vi0 = hs[i].conjugate(), vprev[i]
+            stop_i = stopping_time_s(vi0, react, inv2a)
+            for k, d in enumerate(dist):
+                if d >= look:
+                    continue
+                r = zs[k] - zi
+                d = d if d > 1e-9 else 1e-9
+                cos_i = (r * hci).real / d
+                toward = -cos_i if vi < 0.0 else cos_i
+                if toward <= 0.0:
+                    continue
+                vk = vprev[k]
+                back = -(r * hs[k].conjugate()).real / d * vk if vk else 0.0  # k coming closer
+                gap = d - contact if d > contact else 0.0
+                if back > 0.0:  # k's stopping distance toward i at its committed speed
+                    their = back * stopping_time_s(vk, react, inv2a)
+                else:  # k moves away: the distance it still travels while braking
+                    their = -back * back * credit
+                mine = cos_i * vi0  # how fast i comes closer to k, and its stopping distance
+                mine = mine * stop_i if mine > 0.0 else 0.0
+                share, half = pair_share_m(gap, their, mine)  # g - theirs less k's half of the rest
+                share = half if half < share else share
+                share = share if share > 0.0 else 0.0
+                cap, floor = approach_cap_mps(share, toward, two_a, at, at2, sqrt)
+                cap = floor if cap < floor else cap
+                if cap < limit[i]:
+                    limit[i] = cap
+                if toward > COS_AHEAD and d < near[i]:
+                    near[i], blocker[i] = d, k
         for j in movers:
             if limit[j] < abs(v[j]):
                 v[j] = limit[j] if v[j] > 0.0 else -limit[j]

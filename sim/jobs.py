@@ -54,6 +54,7 @@ class Jobs:
 
     def __init__(
         self,
+        *,
         fleet: FleetState,
         schedule: Schedule,
         clock: Clock,

@@ -30,8 +30,8 @@ bookkeeping (``sim.jobs.Jobs``), the control period (``sim.control``), the motor
 (``sim.motors.Motors``) and the contact monitor. The control period exists twice with the same
 formulas, chosen by the ``control`` argument: over numpy arrays (``ArrayControl``), and robot by
 robot in plain Python (``ScalarControl``), where numpy's per-call overhead would dominate; by
-default the scalar one for teams of up to ``SMALL_TEAM`` robots. The tests run both and check
-that they command the same wheels period by period.
+default the scalar one for teams of up to ``SMALL_TEAM`` robots. The tests run both from copies
+of the same state and check that they command the same wheels.
 
 A task's robot plans a path to the site, drives, arrives within ``arrive_tol_m`` (or beside robots
 already standing at the site), works for the type's execution time and stays where it finished.
@@ -124,18 +124,18 @@ class PymunkWorld:
         obstacles = [*sp.obstacles, *walls]
         self.follower = PathFollower(m, v_max, obstacles, drive.radius_m, kind.free_cap_m)
         self.jobs = Jobs(
-            self.fleet,
-            self.schedule,
-            self.clock,
-            self.follower,
-            self.planner,
-            self.controller,
-            sp,
-            self.exec_time_s_,
-            self.reach_m_,
-            self.motors.bodies,
-            rng,
-            kind.keeps_lists,
+            fleet=self.fleet,
+            schedule=self.schedule,
+            clock=self.clock,
+            follower=self.follower,
+            planner=self.planner,
+            controller=self.controller,
+            spatial=sp,
+            exec_time_s=self.exec_time_s_,
+            reach_m=self.reach_m_,
+            bodies=self.motors.bodies,
+            rng=rng,
+            keep_lists=kind.keeps_lists,
         )
         parts = ControlParts(
             self.fleet,

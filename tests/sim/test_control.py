@@ -61,17 +61,17 @@ def one_period(world: PymunkWorld, kind) -> tuple[FleetState, Jobs]:
     fleet, schedule = copy.deepcopy(world.fleet), copy.deepcopy(world.schedule)
     follower = copy.deepcopy(world.follower)
     jobs = Jobs(
-        fleet,
-        schedule,
-        world.clock,
-        follower,
-        world.planner,
-        world.controller,
-        world.spatial,
-        world.exec_time_s_,
-        world.reach_m_,
-        world.motors.bodies,
-        copy.deepcopy(world.jobs.rng),
+        fleet=fleet,
+        schedule=schedule,
+        clock=world.clock,
+        follower=follower,
+        planner=world.planner,
+        controller=world.controller,
+        spatial=world.spatial,
+        exec_time_s=world.exec_time_s_,
+        reach_m=world.reach_m_,
+        bodies=world.motors.bodies,
+        rng=copy.deepcopy(world.jobs.rng),
         keep_lists=True,
     )
     motors = Probe(world.motors)

@@ -241,7 +241,7 @@ class AllocationEnv(AllocationRounds, gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        from sim.render_env import env_frame
+        from sim.render.env import env_frame
 
         return env_frame(self)
 

@@ -146,7 +146,7 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
         """The current frame as an (H, W, 3) uint8 array (the GIF's frames in spatial worlds)."""
         if self.render_mode != "rgb_array":
             return None
-        from sim.render_env import env_frame
+        from sim.render.env import env_frame
 
         return env_frame(self)
 

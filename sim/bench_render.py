@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from sim.recording import Trajectory
-from sim.render import _time_decimals, frame_times, render_frame, render_gif
-from sim.render_frame import FrameScene
-from sim.render_style import DPI
+from sim.render import frame_times, render_frame, render_gif
+from sim.render.frames import time_decimals
+from sim.render.scene import FrameScene
+from sim.render.style import DPI
 from sim.synthetic import synthetic_trajectory
 
 BENCH_SEED = 0
@@ -45,7 +46,7 @@ def baseline_gif(
     fig = Figure(figsize=(size[0] / DPI, size[1] / DPI), dpi=DPI)
     FigureCanvasAgg(fig)
     scene = FrameScene(traj, size, trail_s, figure=fig, blit=False)
-    scene.time_decimals = _time_decimals(times)
+    scene.time_decimals = time_decimals(times)
 
     def draw(i: int) -> list:
         scene.update(float(times[i]))

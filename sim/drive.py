@@ -1,4 +1,4 @@
-"""Differential drive: pymunk motors and the wheel-limited controller, for arrays of robots.
+"""Differential drive: the wheel-limited controller, for arrays of robots.
 
 A differential-drive robot turns its wheels at rim speeds u_r, u_l (m/s); its body moves at
 v = (u_r + u_l) / 2 along its heading and turns at omega = (u_r - u_l) / b, never sideways. The
@@ -12,177 +12,34 @@ Everything is numpy over the robot axis, with as few array operations per contro
 law allows: for small teams the per-call overhead of numpy, not the arithmetic, is the cost.
 Points and headings are complex numbers (x + iy and e^{i theta}): one complex multiply rotates a
 vector into a robot's frame. Wheel state is kept as (v, q = omega b / 2): rim speeds v +- q.
-
-:class:`Motors` puts the robots into a pymunk space. Each robot is a dynamic circle; a kinematic
-*control body* per robot is joined to it by a PivotJoint and a GearJoint with ``max_bias = 0`` and
-a force limit (pymunk's "tank" pattern): the joints pull the robot's velocity toward the control
-body's, as hard as the tyres allow, while contacts push back. For a command (v, omega) held over
-one control period the control body sits at the instantaneous centre of rotation, turning at omega,
-and the pivot's anchor on it is the robot centre: that anchor moves at v along the robot's heading
-at every physics step, so a robot drives exact arcs and never slides sideways unless something
-pushes harder than its tyres grip. Poses are read and commands written for all bodies at once
-through one ``pymunk.batch`` buffer, viewed as a structured numpy array.
+The robots' bodies and motors are :class:`sim.motors.Motors`.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import pymunk
-import pymunk.batch as pb
-from pymunk._chipmunk_cffi import ffi, lib
 from scipy.spatial import cKDTree
 
+from sim.drive_law import (
+    COS_AHEAD,
+    COS_TURN,
+    HEADING_GAIN,
+    KEEP_RIGHT_GAIN,
+    KEEP_RIGHT_M,
+    PROXIMITY_DECEL,
+    REACT_PERIODS,
+    approach_cap_mps,
+    goes_our_way,
+    pair_share_m,
+    rim_speed_mps,
+    steer_speeds,
+    stopping_time_s,
+    twist_from_rims,
+)
 from sim.scenario import DriveSpec
 
-HEADING_GAIN = 2.5  # 1/s: omega command per radian of heading error
-TURN_IN_PLACE_RAD = np.pi / 3  # beyond this heading error the robot stops and turns
-CREEP_MPS = 0.15  # closing speed still allowed on contact: robots may nudge, never ram
-KEEP_RIGHT_M = 0.6  # gap below which a robot turns right around a robot not going its way
-KEEP_RIGHT_GAIN = 0.25  # that turn, as a share of the top turn rate
-PROXIMITY_DECEL = 0.75  # share of the wheels' braking power planned for around robots and walls
-REACT_PERIODS = 1.0  # a command holds for this many control periods before the next can brake
 DENSE_MAX = 64  # up to this many robots the neighbour search is one (m, m) array
 VERLET_SKIN_M = 1.0  # beyond DENSE_MAX: the neighbour list holds pairs this much beyond look_m
-AHEAD_DEG = 70.0  # a robot within this angle of the direction of travel is in the way
-ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
-_COS_TURN = float(np.cos(TURN_IN_PLACE_RAD))
-_COS_AHEAD = float(np.cos(np.radians(AHEAD_DEG)))
-_IO = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
-_IO |= pb.BodyFields.ANGULAR_VELOCITY  # 6 floats per body: x, y, angle, vx, vy, omega
-# the same 6 floats as one record: position and velocity as complex numbers
-BODY = np.dtype([("z", np.complex128), ("th", np.float64), ("vel", np.complex128), ("w", float)])
-
-
-class Motors:
-    """Robot bodies and their motor joints in a pymunk space, with batched pose I/O.
-
-    The ``pymunk.batch`` calls go straight through pymunk's cffi library with descriptors built
-    once, and the numpy views of the buffer are kept while the buffer stays where it is: a read
-    or a write is one pass over the bodies in C and no Python allocation. This uses pymunk's
-    cffi handles (``Space._space``, ``Constraint._constraint``, the ``Buffer`` arrays) the way
-    ``pymunk.batch`` itself does; written against pymunk 7.3.
-
-    Args:
-        space: the space to add the robots to (add nothing else dynamic or kinematic after).
-        drive: body and tyre parameters.
-        starts: (m, 2) start positions; every robot starts facing +x.
-        collision_type: pymunk collision type of the robot shapes.
-    """
-
-    def __init__(
-        self, space: pymunk.Space, drive: DriveSpec, starts: np.ndarray, collision_type: int
-    ) -> None:
-        self.space = space
-        force_n = drive.mass_kg * drive.traction_mps2
-        moment = pymunk.moment_for_circle(drive.mass_kg, 0.0, drive.radius_m)
-        self.bodies, self.pivots, controls = [], [], []
-        starts = np.asarray(starts, dtype=float)
-        for xy in starts:  # robots first, then their control bodies: two runs of buffer rows
-            body = pymunk.Body(drive.mass_kg, moment)
-            body.position = tuple(xy)
-            shape = pymunk.Circle(body, drive.radius_m)
-            shape.friction, shape.elasticity, shape.collision_type = 0.3, 0.0, collision_type
-            space.add(body, shape)
-            self.bodies.append(body)
-        for xy, body in zip(starts, self.bodies, strict=True):
-            ctrl = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            ctrl.position = tuple(xy)
-            pivot = pymunk.PivotJoint(ctrl, body, (0.0, 0.0), (0.0, 0.0))
-            gear = pymunk.GearJoint(ctrl, body, 0.0, 1.0)
-            pivot.max_bias = gear.max_bias = 0.0  # match velocities only: no spring back
-            pivot.max_force = force_n
-            gear.max_force = force_n * drive.wheel_base_m / 2.0  # torque of the wheel pair
-            space.add(ctrl, pivot, gear)
-            self.pivots.append(pivot)
-            controls.append(ctrl)
-        self.buf_ = pb.Buffer()
-        pb.get_space_bodies(space, pb.BodyFields.BODY_ID, self.buf_)
-        ids = np.frombuffer(self.buf_.int_buf(), dtype=np.uintp).tolist()
-        row = {int(i): k for k, i in enumerate(ids)}
-        self.rob_ = _rows([row[b.id] for b in self.bodies])
-        self.ctl_ = _rows([row[b.id] for b in controls])
-        if not (isinstance(self.rob_, slice) and isinstance(self.ctl_, slice)):
-            raise RuntimeError("robots and control bodies must be runs of batch buffer rows")
-        self.anchor_ = np.zeros(len(self.bodies))
-        self.radius_ = np.zeros(len(self.bodies))
-        self.anchor_list_ = [0.0] * len(self.bodies)  # arc radii of the pivots (write_one)
-        self.cp_pivots_ = [p._constraint for p in self.pivots]
-        self.cp_ctl_ = [c._body for c in controls]
-        self.set_pos_, self.set_angle_ = lib.cpBodySetPosition, lib.cpBodySetAngle
-        self.set_vel_, self.set_w_ = lib.cpBodySetVelocity, lib.cpBodySetAngularVelocity
-        self.set_anchor_ = lib.cpPivotJointSetAnchorA
-        self.get_, self.set_ = ffi.new("pmBatchedData *"), ffi.new("pmBatchedData *")
-        for d in (self.get_, self.set_):
-            d.fields = _IO.value
-            d.floatArray, d.intArray = self.buf_._float_arr, self.buf_._int_arr
-        self.get_fn_ = ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
-        self.set_fn_ = ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched")
-        self.ptr_, self.num_ = None, -1
-
-    def read(self) -> np.ndarray:
-        """(m,) :data:`BODY` records (z, th, vel, w) of the robots: a view of the batch buffer,
-        valid until the next read. ``flat`` views the same robots as (m, 6) floats."""
-        arr = self.buf_._float_arr
-        arr.num = 0
-        lib.cpSpaceEachBody(self.space._space, self.get_fn_, self.get_)
-        if arr.arr != self.ptr_ or arr.num != self.num_:  # the buffer moved: new views
-            self.ptr_, self.num_ = arr.arr, arr.num
-            raw = np.frombuffer(self.buf_.float_buf(), dtype=BODY)
-            flat = raw.view(np.float64).reshape(-1, 6)
-            self.rob, self.ctl, self.flat = raw[self.rob_], raw[self.ctl_], flat[self.rob_]
-            self.ctl_flat = flat[self.ctl_].reshape(-1)  # x, y, th, vx, vy, w of each in turn
-        return self.rob
-
-    def write(self, z, th, h, v_mps, omega_radps) -> None:
-        """Command every robot to drive at (v, omega) until the next write.
-
-        On an arc the control body sits at the centre of rotation z + i R h, R = v / omega,
-        turns at omega and carries the pivot anchor (0, -R): that anchor is the robot centre.
-        Straight (or turning in place) it sits on the robot and moves at v h. Robot rows of the
-        buffer (the last :meth:`read`) are written back unchanged.
-        """
-        v, w = v_mps, omega_radps
-        arc = np.abs(v) < np.abs(w) * ARC_MAX_RADIUS_M
-        radius = self.radius_
-        radius.fill(0.0)
-        np.divide(v, w, out=radius, where=arc)
-        ctl = self.ctl
-        ctl["z"] = radius * (1j * h) + z
-        ctl["th"] = th
-        ctl["vel"] = (v - w * radius) * h  # zero on an arc: the control body only turns
-        ctl["w"] = w
-        changed = (self.anchor_ != radius).nonzero()[0]
-        if changed.size:
-            pivots, set_anchor = self.cp_pivots_, lib.cpPivotJointSetAnchorA
-            for j, r in zip(changed.tolist(), (-radius[changed]).tolist(), strict=True):
-                set_anchor(pivots[j], (0.0, r))
-        self.radius_, self.anchor_ = self.anchor_, radius
-        arr = self.buf_._float_arr
-        num, arr.num = arr.num, 0  # the setter walks the buffer from its start
-        lib.cpSpaceEachBody(self.space._space, self.set_fn_, self.set_)
-        arr.num = num
-
-    def write_one(
-        self, j: int, x: float, y: float, th: float, vx: float, vy: float, w: float, radius: float
-    ) -> None:
-        """:meth:`write` for robot j alone, its control body's state already computed (the
-        scalar path of a small team): position, angle, velocity, turn rate and arc radius.
-        A few cffi calls, no buffer: a robot whose command has not changed is not written."""
-        body = self.cp_ctl_[j]
-        self.set_pos_(body, (x, y))
-        self.set_angle_(body, th)
-        self.set_vel_(body, (vx, vy))
-        self.set_w_(body, w)
-        if radius != self.anchor_list_[j]:
-            self.set_anchor_(self.cp_pivots_[j], (0.0, -radius))
-            self.anchor_list_[j] = radius
-
-
-def _rows(rows: list[int]) -> slice | np.ndarray:
-    """Rows of a batch buffer as a slice when contiguous (a view), else an index array."""
-    if rows and rows == list(range(rows[0], rows[0] + len(rows))):
-        return slice(rows[0], rows[0] + len(rows))
-    return np.array(rows, dtype=np.intp)
 
 
 class DiffDriveController:
@@ -191,10 +48,13 @@ class DiffDriveController:
     Args:
         drive: the robot body and wheel limits.
         control_dt_s: the control period; the wheel-acceleration limit is applied per period.
+        dense_max: up to this many robots, pairs of neighbours come from one (m, m) distance
+            array; beyond, from a Verlet list (:meth:`neighbour_pairs`).
     """
 
-    def __init__(self, drive: DriveSpec, control_dt_s: float) -> None:
+    def __init__(self, drive: DriveSpec, control_dt_s: float, dense_max: int = DENSE_MAX) -> None:
         self.drive = drive
+        self.dense_max = dense_max
         self.half_base_m = drive.wheel_base_m / 2.0
         self.rim_max_mps = drive.max_wheel_speed_radps * drive.wheel_radius_m
         self.rim_step_mps = drive.max_wheel_accel_radps2 * drive.wheel_radius_m * control_dt_s
@@ -209,9 +69,10 @@ class DiffDriveController:
         self.look_m = self.contact_m + 2.0 * stop_m  # farther apart, no speed cap can bind
         self.keep_right_m = self.contact_m + KEEP_RIGHT_M
         # v = v_max * clip((cos(err) - cos_turn) / (1 - cos_turn), 0, 1) as one affine map
-        self.align_gain_ = self.v_max_mps / (1.0 - _COS_TURN)
-        self.align_bias_ = -_COS_TURN * self.align_gain_
+        self.align_gain_ = self.v_max_mps / (1.0 - COS_TURN)
+        self.align_bias_ = -COS_TURN * self.align_gain_
         self.at_, self.at2_, self.inv2a_ = a * t, (a * t) ** 2, 0.5 / a
+        self.two_a_ = 1.0 / self.inv2a_
         self.wheel_decel_ = drive.max_wheel_accel_radps2 * drive.wheel_radius_m
         self.diag_ = np.zeros((0, 0))
         self.verlet_z_ = np.zeros(0, dtype=complex)  # positions when the Verlet list was built
@@ -231,26 +92,19 @@ class DiffDriveController:
         """
         local = delta * hc
         err = np.arctan2(local.imag, local.real)
-        v = np.cos(err)
-        v *= self.align_gain_
-        v += self.align_bias_
+        gain, bias, brake2 = self.align_gain_, self.align_bias_, 2.0 * self.brake_mps2
+        v, stop = steer_speeds(np.cos(err), gap_m, corner2, gain, bias, brake2, np.sqrt)
         np.maximum(v, 0.0, out=v)
-        stop = gap_m * (2.0 * self.brake_mps2)
-        stop += corner2
-        np.minimum(v, np.sqrt(stop, out=stop), out=v)
+        np.minimum(v, stop, out=v)
         err *= HEADING_GAIN
         return v, err
 
     def _cap(self, share: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Top speed that covers at most ``share`` toward an obstacle at bearing cosine ``tau``
         (> 0) when held for the reaction time and then braked at ``yield_mps2``; at least the
-        creep speed toward it."""
-        cap = share / tau
-        cap *= 1.0 / self.inv2a_
-        cap += self.at2_
-        np.sqrt(cap, out=cap)
-        cap -= self.at_
-        return np.maximum(cap, CREEP_MPS / tau, out=cap)
+        creep speed toward it (:func:`sim.drive_law.approach_cap_mps`)."""
+        cap, creep = approach_cap_mps(share, tau, self.two_a_, self.at_, self.at2_, np.sqrt)
+        return np.maximum(cap, creep, out=cap)
 
     def proximity(
         self, z: np.ndarray, hc: np.ndarray, v_mps: np.ndarray, v_prev_mps: np.ndarray
@@ -273,7 +127,7 @@ class DiffDriveController:
 
         The rule is applied to every pair closer than ``look_m`` = contact + 2 x the stopping
         distance from top speed: farther apart, both can stop from top speed within their half of
-        the gap, so no cap is needed. Up to ``DENSE_MAX`` robots the pairs come from one (m, m)
+        the gap, so no cap is needed. Up to ``dense_max`` robots the pairs come from one (m, m)
         distance array, beyond from a Verlet list (:meth:`neighbour_pairs`); then the formulas run
         over the pairs (i, k) in which i moves toward k, so a crowd costs what its close pairs
         cost, not m x m.
@@ -285,14 +139,14 @@ class DiffDriveController:
         Returns:
             (m,) capped speeds, (m,) index of the nearest robot ahead (-1: none), (m,) its
             centre distance (inf: none) and the least distance between two robots (0 when not
-            known: beyond ``DENSE_MAX`` robots). When no two robots are closer than ``look_m``
+            known: beyond ``dense_max`` robots). When no two robots are closer than ``look_m``
             the three arrays are None and that distance is at least ``look_m``.
         """
         m = len(v_mps)
         if m < 2:
             return None, None, None, np.inf
         look = self.look_m
-        if m <= DENSE_MAX:
+        if m <= self.dense_max:
             dist = np.abs(z - z[:, None])
             dist += self.diag_inf(m)  # a robot is infinitely far from itself
             apart = float(dist.min())
@@ -326,24 +180,20 @@ class DiffDriveController:
         away = np.minimum(back, 0.0)  # k moves away: it would brake over away^2 / 2 a_wheel
         np.maximum(back, 0.0, out=back)
         # stopping distances toward each other at the committed speeds (one period, then a)
-        stop = np.abs(v_prev_mps)
-        stop *= self.inv2a_
-        stop += self.react_s  # per robot: distance along its heading per m/s of its speed
+        stop = stopping_time_s(v_prev_mps, self.react_s, self.inv2a_)  # per m/s, per robot
         their = back * stop[k]
         their -= away * away * (0.5 / self.wheel_decel_)
         np.maximum(mine, 0.0, out=mine)
         mine *= stop[i]
         # i keeps the gap less k's stopping distance less k's half of the room left over:
         # min(g - their, (g - their + mine) / 2), never below 0
-        share = np.subtract(gap, their, out=their)
-        mine += share
-        mine *= 0.5
-        np.minimum(share, mine, out=share)
+        share, half = pair_share_m(gap, their, mine)
+        np.minimum(share, half, out=share)
         np.maximum(share, 0.0, out=share)
         limit = np.full(m, np.inf)
         np.minimum.at(limit, i, self._cap(share, np.maximum(toward, 1e-9)))
         # the robot in the way: the nearest ahead, the lowest index among equally near ones
-        ahead = (toward > _COS_AHEAD).nonzero()[0]
+        ahead = (toward > COS_AHEAD).nonzero()[0]
         near = np.full(m, np.inf)
         np.minimum.at(near, i[ahead], dist[ahead])
         first = ahead[dist[ahead] == near[i[ahead]]]
@@ -374,7 +224,7 @@ class DiffDriveController:
                 :meth:`proximity`; moving: (m,) bool, robots that drive on their own.
         """
         other = np.maximum(blocker, 0)
-        same_way = np.cos(th - th[other]) > 0.5
+        same_way = goes_our_way(th, th[other], np.cos)
         same_way &= moving[other]
         veer = near < self.keep_right_m  # near is finite only where there is a blocker
         veer &= ~same_way
@@ -422,7 +272,7 @@ class DiffDriveController:
         """
         s = self.rim_step_mps
         q1 = omega_radps * self.half_base_m
-        over = np.abs(v_mps) + np.abs(q1)
+        over = rim_speed_mps(v_mps, q1)
         over *= 1.0 / self.rim_max_mps
         np.maximum(over, 1.0, out=over)  # the faster wheel at most at top speed
         dv = v_mps / over
@@ -438,10 +288,5 @@ class DiffDriveController:
             np.minimum(np.maximum(dq, -room, out=dq), room, out=dq)
             np.copyto(right, dv + dq, where=brake)
             np.copyto(left, dv - dq, where=brake)
-        v = right + left
-        v *= 0.5
-        v += v0
-        q = right - left
-        q *= 0.5
-        q += q0
+        v, q = twist_from_rims(right, left, v0, q0)
         return v, q * (1.0 / self.half_base_m), q

@@ -1,16 +1,23 @@
-"""The task side of :class:`sim.physics.PymunkWorld`: arrive, work, finish, stuck, recover, yield.
+"""Task bookkeeping of the pymunk world: assign, start work, finish, stuck, recover, make way.
 
-The array part runs every control period over the robot axis (steering targets, progress); the
-checks that can only fire later (arrival, stuck, end of work, deadline) are skipped until the
-earliest time they could; the per-robot Python runs on events only.
+:class:`Jobs` owns the life of each robot's task, from the auction's assignment to the reported
+:class:`~sim.world.Completion`, over the fleet state it is handed (``sim.fleet``). A control
+period (``sim.control``) steers the robots and calls it on events only (arrival, end of work,
+deadline, stuck, yield request, replanning); after each event :meth:`Jobs.refresh` brings the
+schedule of checks up to date.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from sim.drive import DENSE_MAX
+from sim.drive import DiffDriveController
+from sim.fleet import Clock, FleetState, Schedule
+from sim.paths import PathFollower
+from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
+from sim.scenario import SpatialSpec
+from sim.tasks import Batch
 from sim.world import Completion
 
 BACKOFF_S = 1.5  # a stuck robot reverses on a random arc this long, then replans
@@ -20,136 +27,259 @@ YIELD_STEP_M = 1.0  # how far an idle robot steps aside
 YIELD_TIMEOUT_S = 6.0
 DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
 PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
-SPEED_BOUND = 1.25  # no robot moves faster than this times the top speed, even when pushed
 
 
-class JobsMixin:
-    """Task bookkeeping of the pymunk world (its arrays are created by ``PymunkWorld.reset``)."""
+class Jobs:
+    """The tasks of a fleet of robots, kept in its :class:`~sim.fleet.FleetState`.
 
-    def _jobs(self, z: np.ndarray, hc: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Advance every robot's task (arrive, work, finish, stuck, recover); desired twists."""
-        self.off_path_ = None
-        go = self.state_ == DRIVING
-        steered = go | self.yielding_ if self.n_yield_ else go
-        back = None
-        if self.n_backoff_:
-            back = go & (self.backoff_until_s_ > t)
-            for j in (self.replan_ & ~back).nonzero()[0].tolist():
-                self._replan(j, (z[j].real, z[j].imag), t)
-            go = (self.state_ == DRIVING) & ~back
-            steered = go | self.yielding_
-        if self.n_steer_ if back is None else np.count_nonzero(steered):
-            aim, gap, left, corner2, self.off_path_ = self.follower.targets(z)
-            v, w = self.controller.steer(hc, aim, gap, corner2)
-            if back is not None or self.n_steer_ < len(v):
-                v *= steered
-                w *= steered
-            np.copyto(self.left_m_, left, where=steered)
-            if self.n_yield_:
-                stop = self.yielding_ & ((left < 0.15) | (self.yield_until_s_ < t))
-                if np.count_nonzero(stop):
-                    for j in stop.nonzero()[0].tolist():
-                        self._stop_yield(j, refresh=False)
-                        v[j] = w[j] = 0.0
-                    self._events()
-            better = left < self.progress_m_
-            better &= go
-            if np.count_nonzero(better):
-                np.putmask(self.progress_m_, better, left - PROGRESS_M)
-                np.putmask(self.t_progress_s_, better, t)
-                if self.recovering_:  # got past where it last got stuck: tries start again
-                    past = better & (left < self.stuck_left_m_ - RECOVERED_M)
-                    if np.count_nonzero(past):
-                        self._recovered(past.nonzero()[0].tolist())
-            if t > self.stuck_check_s_:
-                self._stuck(go, t)
-            if t >= self.site_check_s_:
-                self._arrive(z, go, v, w, t)
-        else:
-            v, w = np.zeros(len(z)), np.zeros(len(z))
-        if back is not None:
-            v[back], w[back] = self.backoff_cmd_[back].T
-        self._clock(t)
-        return v, w
+    Args:
+        fleet: per-robot state, read and written in place.
+        schedule: the next-check times and counts that :meth:`refresh` keeps.
+        clock: the world's physics-step clock.
+        follower: the robots' paths.
+        planner: plans paths to sites, side steps and detours (it ignores robots).
+        controller: the drive limits (top speed, top turn rate).
+        spatial: the world's spatial table (stuck timeout, tries, arrival tolerance).
+        exec_time_s: (n_types,) execution time of each task type, s.
+        reach_m: robot centres closer than this are touching, m.
+        bodies: the robots' pymunk bodies (a detour starts along the body's heading now).
+        rng: the world's generator (back-off arcs).
+        keep_lists: keep the state and the steering robots as Python lists in the schedule
+            (the scalar control period reads them).
 
-    def _stuck(self, go: np.ndarray, t: float) -> None:
-        """Recover robots without progress for ``stuck_timeout_s``; schedule the next check."""
-        timeout = self.spatial.stuck_timeout_s
-        stalest = float(self.t_progress_s_.min())  # only rises: set to t, later or inf
-        if t - stalest > timeout:
-            for j in (go & (t - self.t_progress_s_ > timeout)).nonzero()[0].tolist():
-                self._recover(j, t)
-            stalest = float(self.t_progress_s_.min())
-        self.stuck_check_s_ = stalest + timeout
+    Attributes:
+        done: completions not yet handed out by the world.
+        failures: tasks that failed since reset.
+    """
 
-    def _arrive(self, z: np.ndarray, go: np.ndarray, v: np.ndarray, w: np.ndarray, t: float):
-        """Robots at their site (or beside robots standing there) start work; schedule the next
-        check for when the driving robot nearest its arrival zone could first be in it."""
-        sp = self.spatial
-        gap = np.abs(self.site_ - z)
-        zone = sp.arrive_tol_m + 2 * self.reach_m_
-        there = go & (gap <= zone)
-        if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
-            queue = (there & (gap > sp.arrive_tol_m) & (self.near_ <= self.reach_m_)).nonzero()[0]
-            there &= gap <= sp.arrive_tol_m
-            if queue.size:  # touching a robot that stands nearer the site: the site is taken,
-                # and working beside the robots already there counts as arrived
-                standing = (self.state_ != DRIVING) & ~self.yielding_
-                if len(z) <= DENSE_MAX:  # every queued robot against every standing one
-                    zs = z[standing.nonzero()[0]]
-                    nearer = np.abs(zs[None, :] - self.site_[queue, None]) < gap[queue, None]
-                    nearer &= np.abs(zs[None, :] - z[queue, None]) <= self.reach_m_  # touching
-                    there[queue] = nearer.any(axis=1)
-                else:  # ... against its neighbours only (look_m > reach_m_)
-                    i, k = self.controller.neighbour_pairs(z)
-                    queued = np.zeros(len(z), dtype=bool)
-                    queued[queue] = True
-                    sel = (queued[i] & standing[k]).nonzero()[0]
-                    i, k = i[sel], k[sel]
-                    nearer = np.abs(z[k] - self.site_[i]) < gap[i]
-                    nearer &= np.abs(z[k] - z[i]) <= self.reach_m_  # touching
-                    there[queue] = False
-                    there[i[nearer]] = True
-            self._start_work(there.nonzero()[0].tolist(), v, w, t)
-        nearest = float(np.where(go, gap, np.inf).min()) - zone
-        self.site_check_s_ = t + max(nearest, 0.0) / (SPEED_BOUND * self.controller.v_max_mps)
+    def __init__(
+        self,
+        *,
+        fleet: FleetState,
+        schedule: Schedule,
+        clock: Clock,
+        follower: PathFollower,
+        planner: GridPlanner,
+        controller: DiffDriveController,
+        spatial: SpatialSpec,
+        exec_time_s: np.ndarray,
+        reach_m: float,
+        bodies: list,
+        rng: np.random.Generator,
+        keep_lists: bool,
+    ) -> None:
+        self.fleet, self.schedule, self.clock = fleet, schedule, clock
+        self.follower, self.planner, self.controller = follower, planner, controller
+        self.spatial = spatial
+        self.exec_time_s = exec_time_s
+        self.reach_m = reach_m
+        self.bodies = bodies
+        self.rng = rng
+        self.keep_lists = keep_lists
+        self.done: list[Completion] = []
+        self.failures = 0
 
-    def _start_work(self, arrived: list[int], v, w, t: float) -> None:
+    def assign(
+        self, batch: Batch, assignment: np.ndarray, bids: np.ndarray, won: np.ndarray, xy_m
+    ) -> None:
+        """Start the tasks ``won`` of ``batch``: plan each robot's path from ``xy_m`` (m, 2).
+
+        A task whose site has no path from its robot fails at once as unreachable.
+        """
+        f, t, sp = self.fleet, self.clock.time_s, self.spatial
+        v_max = self.follower.v_max_mps
+        slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + BACKOFF_S) + 30.0
+        rows, paths = [], []
+        for k in won.tolist():
+            j = int(assignment[k])
+            if f.task[j] >= 0:
+                raise RuntimeError(f"invariant violated: robot {j} given a task while busy")
+            site = np.asarray(batch.sites[k], dtype=float)
+            if not np.isfinite(site).all():
+                raise ValueError(f"task {int(batch.ids[k])} has no site: a spatial world needs one")
+            f.task[j], f.task_type[j] = int(batch.ids[k]), int(batch.types[k])
+            f.t_alloc_s[j], f.bid[j], f.site[j] = t, float(bids[k]), complex(*site)
+            f.odo0_m[j], f.recoveries[j], f.replan[j] = f.moved_m[j], 0, False
+            f.stuck_left_m[j] = np.inf
+            f.backoff_until_s[j] = -np.inf
+            f.yielding[j] = False
+            self.follower.clear(j)
+            path = self.planner.path(xy_m[j], site)
+            if not len(path):
+                self.finish(j, t, False, f"unreachable: no path from {_xy(xy_m[j])} to {_xy(site)}")
+                continue
+            rows.append(j)
+            paths.append(path)
+        for j, length in zip(rows, self.follower.set_paths(rows, paths), strict=True):
+            f.state[j] = DRIVING
+            f.left_m[j], f.progress_m[j], f.t_progress_s[j] = length, np.inf, t
+            f.deadline_s[j] = t + self.exec_time_s[f.task_type[j]] + 4 * length / v_max + slack
+        self.schedule.site_check_s = -np.inf
+        self.refresh()
+
+    def busy_until_s(self, t: float) -> np.ndarray:
+        """(m,) estimated end of each robot's task (``t`` if free): path left at top speed plus
+        the execution time while driving, the end of work while working."""
+        f = self.fleet
+        busy = np.full(len(f.state), t)
+        drv, wrk = f.state == DRIVING, f.state == WORKING
+        v_max = self.follower.v_max_mps
+        busy[drv] = t + f.left_m[drv] / v_max + self.exec_time_s[f.task_type[drv]]
+        busy[wrk] = np.maximum(f.work_end_s[wrk], t)
+        return busy
+
+    def refresh(self) -> None:
+        """Refresh the schedule's next-event times and counts after a task event."""
+        f, sch = self.fleet, self.schedule
+        busy = f.task >= 0
+        work = f.state == WORKING
+        sch.next_end_s = float(f.work_end_s[work].min(initial=np.inf))
+        sch.next_deadline_s = float(f.deadline_s[busy].min(initial=np.inf))
+        backing = f.replan | (f.backoff_until_s > self.clock.time_s)
+        sch.n_backoff = int(np.count_nonzero(backing))
+        sch.n_yield = int(np.count_nonzero(f.yielding))
+        sch.n_steer = int(np.count_nonzero(f.state == DRIVING)) + sch.n_yield
+        if self.keep_lists:
+            sch.state_list = f.state.tolist()
+            steering = (f.state == DRIVING) | f.yielding  # driving, backing off, yielding
+            sch.steer_list = steering.nonzero()[0].tolist()
+        sch.stuck_check_s = sch.prox_check_s = -np.inf
+        sch.resting = False
+
+    def start_work(self, arrived: list[int], v, w, t: float) -> None:
         """The robots ``arrived`` start work now; their commands ``v``, ``w`` become zero."""
+        f, sch = self.fleet, self.schedule
         for j in arrived:
-            self.state_[j] = WORKING
-            self.work_end_s_[j] = t + self.exec_time_s_[self.type_[j]]
-            self.t_progress_s_[j] = np.inf
+            f.state[j] = WORKING
+            f.work_end_s[j] = t + self.exec_time_s[f.task_type[j]]
+            f.t_progress_s[j] = np.inf
             self.follower.clear(j)
             v[j] = w[j] = 0.0
-            self.next_end_s_ = min(self.next_end_s_, self.work_end_s_[j])
+            sch.next_end_s = min(sch.next_end_s, f.work_end_s[j])
         if arrived:
-            self._events()
+            self.refresh()
 
-    def _clock(self, t: float) -> None:
+    def end_due(self, t: float) -> None:
         """End the work that is done and the tasks past their deadline."""
-        if t + 1e-9 >= self.next_end_s_:
-            self._finish_work(t)
-        if t > self.next_deadline_s_:
-            late = ((self.task_ >= 0) & (self.deadline_s_ < t)).nonzero()[0]
+        f = self.fleet
+        if t + 1e-9 >= self.schedule.next_end_s:
+            self.finish_work(t)
+        if t > self.schedule.next_deadline_s:
+            late = ((f.task >= 0) & (f.deadline_s < t)).nonzero()[0]
             for j in late.tolist():
-                self._finish(j, t, False, "timeout: task not finished by its deadline", False)
+                self.finish(j, t, False, "timeout: task not finished by its deadline", False)
             if late.size:
-                self._events()
+                self.refresh()
 
-    def _finish_work(self, t: float) -> None:
-        done = ((self.state_ == WORKING) & (self.work_end_s_ <= t + 1e-9)).nonzero()[0]
+    def finish_work(self, t: float) -> None:
+        """Report the work that has ended by ``t`` as done."""
+        f = self.fleet
+        done = ((f.state == WORKING) & (f.work_end_s <= t + 1e-9)).nonzero()[0]
         for j in done.tolist():
-            self._finish(j, float(self.work_end_s_[j]), True, refresh=False)
+            self.finish(j, float(f.work_end_s[j]), True, refresh=False)
         if done.size:
-            self._events()
+            self.refresh()
 
-    def _make_way(self, pushers, blocker, z, h, v, t: float) -> None:
-        """Idle robots standing in a driving robot's way step aside (planning ignores robots)."""
+    def finish(
+        self, j: int, t_done_s: float, ok: bool, reason: str = "", refresh: bool = True
+    ) -> None:
+        """Report robot j's task as a Completion and free the robot (``refresh=False``: the
+        caller calls :meth:`refresh` once after a batch; nothing reads the schedule between)."""
+        f = self.fleet
+        task, t_alloc, bid = int(f.task[j]), float(f.t_alloc_s[j]), float(f.bid[j])
+        odo = float(f.moved_m[j] - f.odo0_m[j])
+        self.done.append(Completion(task, j, t_alloc, t_done_s, bid, odo, ok, reason))
+        self.failures += not ok
+        f.task[j] = -1
+        f.state[j] = IDLE
+        f.stuck_left_m[j] = np.inf
+        f.replan[j] = False
+        f.backoff_until_s[j] = -np.inf
+        f.t_progress_s[j] = np.inf
+        self.follower.clear(j)
+        if refresh:
+            self.refresh()
+
+    def check_stuck(self, go: np.ndarray, t: float) -> None:
+        """Recover the robots ``go`` without progress for ``stuck_timeout_s``; schedule the next
+        check."""
+        timeout = self.spatial.stuck_timeout_s
+        f = self.fleet
+        stalest = float(f.t_progress_s.min())  # only rises: set to t, later or inf
+        if t - stalest > timeout:
+            for j in (go & (t - f.t_progress_s > timeout)).nonzero()[0].tolist():
+                self.recover(j, t)
+            stalest = float(f.t_progress_s.min())
+        self.schedule.stuck_check_s = stalest + timeout
+
+    def recover(self, j: int, t: float) -> None:
+        """Robot j is stuck: wait for a robot at work that boxes it in, go round a standing one,
+        or back off on a random arc and replan; after ``max_recoveries`` tries, fail."""
+        sp, f = self.spatial, self.fleet
+        b, z = int(f.blocker[j]), f.last_z_m
+        blocked = b >= 0 and f.near_m[j] < self.reach_m + YIELD_TRIGGER_M
+        if blocked and f.state[b] == WORKING and f.work_end_s[b] - t <= sp.stuck_timeout_s:
+            # boxed in by a robot at work that is nearly done: not stuck, wait for it
+            f.t_progress_s[j] = f.work_end_s[b]
+            return
+        f.recoveries[j] += 1
+        f.stuck_left_m[j] = f.left_m[j]  # where it got stuck (path left to drive)
+        self.schedule.recovering = True
+        if f.recoveries[j] > sp.max_recoveries:
+            why = f"stuck: no progress for {sp.stuck_timeout_s:g} s after {sp.max_recoveries} tries"
+            return self.finish(j, t, False, why)
+        if blocked and f.state[b] != DRIVING:
+            travel = np.exp(1j * self.bodies[j].angle)
+            site = (f.site[j].real, f.site[j].imag)
+            others = np.delete(z, j)
+            path = self.planner.detour(z[j], z[b], travel, DETOUR_M, site, others)
+            if len(path):  # go round the robot that stands in the way
+                self.follower.set_path(j, path)
+                f.progress_m[j], f.t_progress_s[j] = np.inf, t
+                return
+        c = self.controller
+        turn = self.rng.uniform(-0.5, 0.5) * c.omega_max_radps
+        f.backoff_cmd[j] = (-0.3 * c.v_max_mps, turn)
+        f.backoff_until_s[j] = t + BACKOFF_S
+        f.t_progress_s[j] = np.inf
+        f.replan[j] = True
+        self.follower.clear(j)
+        self.refresh()
+
+    def recovered(self, rows: list[int]) -> None:
+        """Robots ``rows`` came ``RECOVERED_M`` closer to their site than where they last got
+        stuck: that obstruction is behind them, and their tries start again."""
+        f = self.fleet
+        for j in rows:
+            f.recoveries[j] = 0
+            f.stuck_left_m[j] = np.inf
+        self.schedule.recovering = bool(np.isfinite(f.stuck_left_m).any())
+
+    def replan(self, j: int, xy: tuple[float, float], t: float) -> None:
+        """Robot j has backed off: a new path from ``xy`` to its site, or fail as unreachable."""
+        f = self.fleet
+        f.replan[j] = False
+        path = self.planner.path(xy, (f.site[j].real, f.site[j].imag))
+        if not len(path):
+            self.finish(j, t, False, f"unreachable: no path from {_xy(xy)} after a recovery")
+            return
+        self.follower.set_path(j, path)
+        f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.schedule.site_check_s = -np.inf
+        self.refresh()
+
+    def make_way(self, pushers, blocker, z, h, v, t: float) -> None:
+        """Idle robots standing in a driving robot's way step aside (planning ignores robots).
+
+        Args:
+            pushers: driving robots that asked; blocker: (m,) the robot in each one's way;
+            z, h: (m,) positions and unit headings (complex); v: (m,) speed commands; t: now.
+        """
+        f = self.fleet
         rows, paths = [], []
         for j in pushers.tolist():
             b = int(blocker[j])
-            if self.yielding_[b]:  # asked by another robot in this period
+            if f.yielding[b]:  # asked by another robot in this period
                 continue
             travel = h[j] if v[j] >= 0 else -h[j]
             # the side step's end point must keep YIELD_STEP_M / 2 from the other robots: only
@@ -160,103 +290,14 @@ class JobsMixin:
             if len(path):
                 rows.append(b)
                 paths.append(path)
-                self.yielding_[b], self.yield_until_s_[b] = True, t + YIELD_TIMEOUT_S
+                f.yielding[b], f.yield_until_s[b] = True, t + YIELD_TIMEOUT_S
         self.follower.set_paths(rows, paths)
-        self._events()
+        self.refresh()
 
-    def _stop_yield(self, j: int, refresh: bool = True) -> None:
-        """Robot j stops yielding (``refresh=False``: the caller calls ``_events`` after)."""
-        self.yielding_[j] = False
+    def stop_yield(self, j: int) -> None:
+        """Robot j stops yielding (the caller calls :meth:`refresh` after)."""
+        self.fleet.yielding[j] = False
         self.follower.clear(j)
-        if refresh:
-            self._events()
-
-    def _events(self) -> None:
-        """Refresh the scalar next-event times and counts after a task event."""
-        busy = self.task_ >= 0
-        work = self.state_ == WORKING
-        self.next_end_s_ = float(self.work_end_s_[work].min(initial=np.inf))
-        self.next_deadline_s_ = float(self.deadline_s_[busy].min(initial=np.inf))
-        backing = self.replan_ | (self.backoff_until_s_ > self.time_s)
-        self.n_backoff_ = int(np.count_nonzero(backing))
-        self.n_yield_ = int(np.count_nonzero(self.yielding_))
-        self.n_steer_ = int(np.count_nonzero(self.state_ == DRIVING)) + self.n_yield_
-        if self.small_:  # the same as Python lists, for the scalar control period
-            self.state_list_ = self.state_.tolist()
-            steering = (self.state_ == DRIVING) | self.yielding_  # driving, backing off, yielding
-            self.steer_list_ = steering.nonzero()[0].tolist()
-        self.stuck_check_s_ = self.prox_check_s_ = -np.inf
-        self.resting_ = False
-
-    def _recover(self, j: int, t: float) -> None:
-        sp = self.spatial
-        b, z = int(self.blocker_[j]), self.last_z_
-        blocked = b >= 0 and self.near_[j] < self.reach_m_ + YIELD_TRIGGER_M
-        if blocked and self.state_[b] == WORKING and self.work_end_s_[b] - t <= sp.stuck_timeout_s:
-            # boxed in by a robot at work that is nearly done: not stuck, wait for it
-            self.t_progress_s_[j] = self.work_end_s_[b]
-            return
-        self.recoveries_[j] += 1
-        self.stuck_left_m_[j] = self.left_m_[j]  # where it got stuck (path left to drive)
-        self.recovering_ = True
-        if self.recoveries_[j] > sp.max_recoveries:
-            why = f"stuck: no progress for {sp.stuck_timeout_s:g} s after {sp.max_recoveries} tries"
-            return self._finish(j, t, False, why)
-        if blocked and self.state_[b] != DRIVING:
-            travel = np.exp(1j * self.robots_[j].angle)
-            site = (self.site_[j].real, self.site_[j].imag)
-            others = np.delete(z, j)
-            path = self.planner.detour(z[j], z[b], travel, DETOUR_M, site, others)
-            if len(path):  # go round the robot that stands in the way
-                self.follower.set_path(j, path)
-                self.progress_m_[j], self.t_progress_s_[j] = np.inf, t
-                return
-        c = self.controller
-        turn = self.rng_.uniform(-0.5, 0.5) * c.omega_max_radps
-        self.backoff_cmd_[j] = (-0.3 * c.v_max_mps, turn)
-        self.backoff_until_s_[j] = t + BACKOFF_S
-        self.t_progress_s_[j] = np.inf
-        self.replan_[j] = True
-        self.follower.clear(j)
-        self._events()
-
-    def _recovered(self, rows: list[int]) -> None:
-        """Robots ``rows`` came ``RECOVERED_M`` closer to their site than where they last got
-        stuck: that obstruction is behind them, and their tries start again."""
-        for j in rows:
-            self.recoveries_[j] = 0
-            self.stuck_left_m_[j] = np.inf
-        self.recovering_ = bool(np.isfinite(self.stuck_left_m_).any())
-
-    def _replan(self, j: int, xy: np.ndarray, t: float) -> None:
-        self.replan_[j] = False
-        path = self.planner.path(xy, (self.site_[j].real, self.site_[j].imag))
-        if not len(path):
-            self._finish(j, t, False, f"unreachable: no path from {_xy(xy)} after a recovery")
-            return
-        self.follower.set_path(j, path)
-        self.progress_m_[j], self.t_progress_s_[j] = np.inf, t
-        self.site_check_s_ = -np.inf
-        self._events()
-
-    def _finish(
-        self, j: int, t_done_s: float, ok: bool, reason: str = "", refresh: bool = True
-    ) -> None:
-        """Report robot j's task as a Completion and free the robot (``refresh=False``: the
-        caller calls ``_events`` once after a batch; nothing reads the event times between)."""
-        task, t_alloc, bid = int(self.task_[j]), float(self.t_alloc_s_[j]), float(self.bid_[j])
-        odo = float(self.moved_m_[j] - self.odo0_m_[j])
-        self.done_.append(Completion(task, j, t_alloc, t_done_s, bid, odo, ok, reason))
-        self.failures_ += not ok
-        self.task_[j] = -1
-        self.state_[j] = IDLE
-        self.stuck_left_m_[j] = np.inf
-        self.replan_[j] = False
-        self.backoff_until_s_[j] = -np.inf
-        self.t_progress_s_[j] = np.inf
-        self.follower.clear(j)
-        if refresh:
-            self._events()
 
 
 def _xy(p) -> str:

@@ -1,10 +1,13 @@
-"""A plausible synthetic trajectory for tests and benchmarks of the renderer.
+"""A plausible synthetic trajectory for the renderer's tests and benchmark (``sim.bench_render``).
 
-Robots drive at constant speed along obstacle-avoiding straight-line paths (a visibility graph
-over the inflated obstacle corners), work at their task for a type-dependent time, and stay where
-they finished. Tasks are announced in rounds of U{3..7}; each is given at once to the nearest free
-capable robot (high priority first) or lost. No physics: this stands in for ``sim.physics`` until
-the pymunk world records real runs, and it goes through the same ``TrajectoryRecorder``.
+A cheap, seeded stand-in for a recorded run: no world, no physics, no allocator. Robots drive at
+constant speed along obstacle-avoiding straight-line paths (a visibility graph over the inflated
+obstacle corners), their headings turning toward the path at a bounded rate, and they pass
+through one another. Each works at its task for a type-dependent time and stays where it
+finished. From t = 1 s, every 10 s while tasks remain, a round of U{3..7} tasks is announced; each
+is given at once to the nearest free capable robot (high priority first) or lost. The result goes
+through the same ``TrajectoryRecorder`` as a real run of ``sim.physics.PymunkWorld``, so it has
+every field the renderer reads.
 """
 
 from __future__ import annotations

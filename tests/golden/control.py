@@ -3,20 +3,25 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 
-import sim.physics
+import scenarios.protocol
+import sim
 
 
 @contextlib.contextmanager
 def forced_control(path: str | None):
     """Run the block with new pymunk worlds on the ``scalar`` or ``array`` control path.
 
-    ``None`` leaves the choice to the team size.
+    The runs build their world with ``sim.make_world``; inside the block that call passes
+    ``control=path`` to the world. ``None`` leaves the choice to the team size.
     """
-    old = sim.physics.SMALL_TEAM
-    if path is not None:
-        sim.physics.SMALL_TEAM = 10**6 if path == "scalar" else 0
+    if path is None:
+        yield
+        return
+    old = scenarios.protocol.make_world
+    scenarios.protocol.make_world = functools.partial(sim.make_world, control=path)
     try:
         yield
     finally:
-        sim.physics.SMALL_TEAM = old
+        scenarios.protocol.make_world = old

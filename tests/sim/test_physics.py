@@ -1,7 +1,8 @@
 """The pymunk world: no sideways slip, no ramming, no deadlock, no hang, exact replays.
 
-Behaviour tests run through both control paths: robot by robot in Python (small teams,
-``sim.small``) and over numpy arrays (``sim.jobs`` / ``sim.drive``, larger teams).
+Behaviour tests run through both control paths: robot by robot in Python
+(``sim.control.ScalarControl``, small teams) and over numpy arrays (``sim.control.ArrayControl``,
+larger teams).
 """
 
 from __future__ import annotations
@@ -12,9 +13,6 @@ import numpy as np
 import pytest
 
 import sim.contacts
-import sim.drive
-import sim.jobs
-import sim.physics
 from allocation.auction import MarketAllocator
 from allocation.costs import make_cost_model
 from learning.episode import run_protocol
@@ -29,10 +27,9 @@ from sim.tasks import Batch, generate_stream
 R = DriveSpec().radius_m
 
 
-@pytest.fixture(params=["small", "arrays"])
-def control(request, monkeypatch):
-    """Run the test with the scalar small-team control period, then with the array one."""
-    monkeypatch.setattr(sim.physics, "SMALL_TEAM", 10**6 if request.param == "small" else 0)
+@pytest.fixture(params=["scalar", "array"])
+def control(request) -> str:
+    """The control period to build the world with: robot by robot in Python, then over arrays."""
     return request.param
 
 
@@ -66,7 +63,7 @@ def run_steps(world: PymunkWorld, seconds: float, every=None) -> list:
 
 def lateral_speed(world: PymunkWorld) -> np.ndarray:
     out = []
-    for body in world.robots_:
+    for body in world.motors.bodies:
         h = np.array([np.cos(body.angle), np.sin(body.angle)])
         vx, vy = body.velocity
         out.append(abs(vx * h[1] - vy * h[0]))
@@ -74,13 +71,16 @@ def lateral_speed(world: PymunkWorld) -> np.ndarray:
 
 
 def test_robot_driven_straight_ahead_does_not_slide_sideways(control):
-    world = PymunkWorld(scenario([(2.0, 5.0)], sites=[(16.0, 5.0)]))
+    world = PymunkWorld(scenario([(2.0, 5.0)], sites=[(16.0, 5.0)]), control=control)
     send(world, [0], [(16.0, 5.0)])
     lateral, speed = [], []
     done = run_steps(
         world,
         14.0,
-        lambda w: (lateral.append(lateral_speed(w)[0]), speed.append(w.robots_[0].velocity.length)),
+        lambda w: (
+            lateral.append(lateral_speed(w)[0]),
+            speed.append(w.motors.bodies[0].velocity.length),
+        ),
     )
     assert max(speed) == pytest.approx(1.5, abs=0.01)
     assert max(lateral) < 1e-9
@@ -88,7 +88,7 @@ def test_robot_driven_straight_ahead_does_not_slide_sideways(control):
 
 
 def test_turning_robot_follows_arcs_without_sliding(control):
-    world = PymunkWorld(scenario([(2.0, 2.0)], sites=[(2.0, 8.0), (18.0, 8.0)]))
+    world = PymunkWorld(scenario([(2.0, 2.0)], sites=[(2.0, 8.0), (18.0, 8.0)]), control=control)
     send(world, [0], [(18.0, 8.0)])  # starts facing +x: turns while it drives
     lateral = []
     run_steps(world, 12.0, lambda w: lateral.append(lateral_speed(w)[0]))
@@ -97,7 +97,7 @@ def test_turning_robot_follows_arcs_without_sliding(control):
 
 def test_head_on_robots_never_overlap_and_both_arrive(control):
     starts = [(3.0, 5.0), (17.0, 5.0)]
-    world = PymunkWorld(scenario(starts))
+    world = PymunkWorld(scenario(starts), control=control)
     send(world, [0, 1], starts[::-1])
     gaps = []
     done = run_steps(world, 25.0, lambda w: gaps.append(np.linalg.norm(np.subtract(*w.poses()[0]))))
@@ -112,7 +112,9 @@ def test_single_lane_standoff_ends_in_bounded_time_with_every_task_reported(cont
         ((0.0, 5.45), (20.0, 5.45), (20.0, 10.0), (0.0, 10.0)),
     ]
     starts = [(2.0, 5.0), (18.0, 5.0)]
-    world = PymunkWorld(scenario(starts, lane, stuck_timeout_s=3.0, max_recoveries=2))
+    world = PymunkWorld(
+        scenario(starts, lane, stuck_timeout_s=3.0, max_recoveries=2), control=control
+    )
     send(world, [0, 1], starts[::-1])
     done = world.drain()
     assert sorted(c.task_id for c in done) == [0, 1]
@@ -129,7 +131,7 @@ def test_crowd_crosses_a_narrow_door_without_deadlock_or_touching_the_wall(contr
     ]
     starts = [(2.0, 1.5 + 1.4 * k) for k in range(6)]
     sites = [(13.0 + 2.5 * (k % 3), 2.5 + 5.0 * (k // 3)) for k in range(6)]
-    world = PymunkWorld(scenario(starts, door, sites=sites))
+    world = PymunkWorld(scenario(starts, door, sites=sites), control=control)
     send(world, list(range(6)), sites)
     clearance = []
 
@@ -160,13 +162,13 @@ def test_unreachable_task_is_reported_failed_not_dropped():
 def test_drain_finishes_every_task_and_robots_stay_where_they_finished(control):
     starts = [(2.0, 2.0), (2.0, 8.0)]
     sites = [(15.0, 3.0), (12.0, 7.0)]
-    world = PymunkWorld(scenario(starts, sites=sites, exec_s=5.0))
+    world = PymunkWorld(scenario(starts, sites=sites, exec_s=5.0), control=control)
     send(world, [0, 1], sites)
     done = world.drain()
     assert sorted(c.task_id for c in done) == [0, 1] and all(c.ok for c in done)
     xy = world.poses()[0]
     assert np.linalg.norm(xy - np.array(sites), axis=1).max() < 0.6
-    assert (world.state_ == IDLE).all()
+    assert (world.fleet.state == IDLE).all()
     world.advance(5.0)
     assert np.allclose(world.poses()[0], xy, atol=1e-6)
     for c in done:
@@ -228,10 +230,10 @@ def small_spatial() -> Scenario:
     )
 
 
-def play(sc: Scenario, seed: int):
+def play(sc: Scenario, seed: int, control: str = "auto"):
     stream_ss, world_ss = np.random.SeedSequence(seed).spawn(2)
     stream = generate_stream(sc, np.random.default_rng(stream_ss))
-    world = PymunkWorld(sc)
+    world = PymunkWorld(sc, control=control)
     cost = make_cost_model("distance", sc, world.planner)
     record = run_protocol(
         sc, stream, MarketAllocator(sc), world, cost, np.random.default_rng(world_ss)
@@ -240,7 +242,7 @@ def play(sc: Scenario, seed: int):
 
 
 def test_market_with_distance_cost_completes_every_allocated_task(control):
-    record, world = play(small_spatial(), seed=3)
+    record, world = play(small_spatial(), seed=3, control=control)
     for phase in (record.learn, record.test):
         ids, assigned = phase.arrays()
         assert (assigned >= 0).sum() > 5
@@ -252,9 +254,9 @@ def test_market_with_distance_cost_completes_every_allocated_task(control):
 
 def test_same_seed_replays_bit_for_bit_and_another_seed_differs(control):
     sc = small_spatial()
-    a, wa = play(sc, seed=5)
-    b, wb = play(sc, seed=5)
-    c, wc = play(sc, seed=6)
+    a, wa = play(sc, seed=5, control=control)
+    b, wb = play(sc, seed=5, control=control)
+    c, wc = play(sc, seed=6, control=control)
     assert a.test.completions == b.test.completions
     assert np.array_equal(wa.poses()[0], wb.poses()[0])
     assert a.test.completions != c.test.completions
@@ -287,7 +289,7 @@ def test_crowd_never_overlaps_a_centimetre_and_the_monitor_sees_every_step(contr
     deepest penetration of any step (checked against the geometry after every step)."""
     starts = [(1.0 + 0.9 * (k % 4), 1.0 + 2.2 * (k // 4)) for k in range(16)]
     sc = scenario(starts, CROWD_OBSTACLES, sites=CROWD_SITES, width=14.0, height=10.0, exec_s=4.0)
-    world = PymunkWorld(sc)
+    world = PymunkWorld(sc, control=control)
     true_max, done = [0.0], []
     for rnd in range(2):
         send(world, list(range(16)), [CROWD_SITES[(k + rnd) % 3] for k in range(16)])
@@ -325,16 +327,15 @@ def test_one_solver_iteration_is_exact_while_nothing_touches(monkeypatch):
     assert np.array_equal(run(), adaptive)
 
 
-def test_small_team_and_array_control_periods_agree(monkeypatch):
+def test_small_team_and_array_control_periods_agree():
     """The scalar twin computes the same commands as the array code (up to rounding)."""
     starts = [(2.0, 2.0), (2.0, 8.0), (18.0, 5.0), (9.0, 1.0)]
     sites = [(17.0, 3.0), (10.0, 9.0), (4.0, 5.5), (9.5, 6.0)]
     box = (((8.0, 3.5), (11.0, 3.5), (11.0, 4.5), (8.0, 4.5)),)
     runs = []
-    for limit in (10**6, 0):
-        monkeypatch.setattr(sim.physics, "SMALL_TEAM", limit)
-        world = PymunkWorld(scenario(starts, box, sites=sites))
-        assert world.small_ == (limit > 0)
+    for control in ("scalar", "array"):
+        world = PymunkWorld(scenario(starts, box, sites=sites), control=control)
+        assert world.control_kind == control == world.control.name
         send(world, [0, 1, 2, 3], sites)
         done = world.advance(14.0)
         runs.append((world.poses()[0], sorted((c.task_id, c.ok) for c in done)))
@@ -374,7 +375,7 @@ def test_nearest_obstacle_point_in_python_equals_the_array_version():
     np.testing.assert_allclose(ours, f.to_obstacle(z), rtol=0, atol=1e-12)
 
 
-def test_both_control_periods_agree_in_a_crowd_with_caps_and_keep_right(monkeypatch):
+def test_both_control_periods_agree_in_a_crowd_with_caps_and_keep_right():
     """A head-on pair passing beside an obstacle and between standing robots, and a crossing
     robot: the scalar and the array control period command the same wheels every period; the
     robots come within keep-right distance, so the proximity caps and keep-right act."""
@@ -382,14 +383,14 @@ def test_both_control_periods_agree_in_a_crowd_with_caps_and_keep_right(monkeypa
     sites = [(18.0, 5.0), (2.0, 5.0), (9.0, 6.0), (9.0, 3.3), (16.0, 8.0), (13.0, 8.5)]
     box = (((11.5, 5.6), (13.0, 5.6), (13.0, 7.2), (11.5, 7.2)),)
     logs = []
-    for limit in (10**6, 0):
-        monkeypatch.setattr(sim.physics, "SMALL_TEAM", limit)
-        world = PymunkWorld(scenario(starts, box, sites=sites))
+    for control in ("scalar", "array"):
+        world = PymunkWorld(scenario(starts, box, sites=sites), control=control)
         send(world, [0, 1, 4], [sites[0], sites[1], sites[4]])
         log = []
         for _ in range(60):  # 6 s, one control period at a time
             world.advance(0.1)
-            log.append((world.v_cmd_.copy(), world.q_cmd_.copy(), world.near_.copy()))
+            f = world.fleet
+            log.append((f.v_cmd_mps.copy(), f.q_cmd_mps.copy(), f.near_m.copy()))
         logs.append(log)
     for (v0, q0, n0), (v1, q1, n1) in zip(*logs, strict=True):
         np.testing.assert_allclose(v0, v1, rtol=0, atol=1e-9)
@@ -403,7 +404,8 @@ def test_obstacle_caps_in_python_equal_the_array_version():
     """Robots off their path near obstacles and walls, driving or backing at any heading: the
     scalar speed cap toward the nearest obstacle equals ``DiffDriveController.wall_cap``."""
     box = (((5.0, 1.0), (7.0, 1.0), (7.0, 3.0), (5.0, 3.0)),)
-    world = PymunkWorld(scenario([(1.0, 1.0)], box))
+    scalar = PymunkWorld(scenario([(1.0, 1.0)], box), control="scalar").control
+    array = PymunkWorld(scenario([(1.0, 1.0)], box), control="array").control
     rng = np.random.default_rng(5)
     z = rng.uniform((4.2, 0.3), (7.8, 3.8), size=(3000, 2))  # around the box, near the wall
     z = z[(np.abs(z[:, 0] - 6.0) > 1.0 + R) | (np.abs(z[:, 1] - 2.0) > 1.0 + R)][:300]
@@ -412,14 +414,14 @@ def test_obstacle_caps_in_python_equal_the_array_version():
     v = rng.uniform(-1.5, 1.5, 300)
     v[::7] = 0.0
     ours = v.tolist()
-    world._obstacle_caps_small(z.tolist(), h.tolist(), ours, list(range(300)))
+    scalar.obstacle_caps(z.tolist(), h.tolist(), ours, list(range(300)))
     theirs = v.copy()
-    world._obstacle_caps(z, h.conj(), theirs, np.arange(300))
+    array.obstacle_caps(z, h.conj(), theirs, np.arange(300))
     np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12)
     assert (np.abs(theirs) < np.abs(v) - 0.1).sum() > 20  # many were capped
 
 
-def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatch):
+def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move():
     """Above DENSE_MAX robots the pairs come from a Verlet list (KD-tree pairs within look_m
     plus a skin, reused until a robot has moved half the skin): period after period it gives
     the same caps, robots in the way and distances as the all-pairs array, bit for bit."""
@@ -427,16 +429,15 @@ def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatc
     m = 160
     z = rng.uniform(0.0, 22.0, m) + 1j * rng.uniform(0.0, 22.0, m)
     th = rng.uniform(-np.pi, np.pi, m)
-    listed, dense = DiffDriveController(DriveSpec(), 0.1), DiffDriveController(DriveSpec(), 0.1)
+    listed = DiffDriveController(DriveSpec(), 0.1, dense_max=64)
+    dense = DiffDriveController(DriveSpec(), 0.1, dense_max=10**6)
     lists, binding, blocked = [], 0, 0
     for _ in range(40):
         v = rng.uniform(-0.5, 1.5, m) * (rng.random(m) < 0.7)
         v_prev = rng.uniform(-0.5, 1.5, m) * (rng.random(m) < 0.7)
         hc = np.exp(-1j * th)
-        monkeypatch.setattr(sim.drive, "DENSE_MAX", 64)
         ours = listed.proximity(z, hc, v, v_prev)
         lists.append(listed.verlet_z_)  # replaced when the list is rebuilt
-        monkeypatch.setattr(sim.drive, "DENSE_MAX", 10**6)
         theirs = dense.proximity(z, hc, v, v_prev)
         for a, b in zip(ours[:3], theirs[:3], strict=True):
             np.testing.assert_array_equal(a, b)
@@ -449,23 +450,24 @@ def test_neighbour_list_proximity_equals_the_dense_one_as_robots_move(monkeypatc
     assert binding > 100 and blocked > 100  # caps bound and robots were in the way
 
 
-def test_robots_sent_to_one_site_work_beside_the_one_standing_on_it(control, monkeypatch):
+def test_robots_sent_to_one_site_work_beside_the_one_standing_on_it(control):
     """Three robots, one site: the first works on it, the others work touching a robot that
     stands nearer the site (the site is taken). With the pairs from the all-pairs array and from
     the neighbour list (as above 64 robots) the world commands the same wheels every period."""
     site = (12.0, 5.0)
     logs = []
     for dense_max in (64, 0):
-        monkeypatch.setattr(sim.drive, "DENSE_MAX", dense_max)
-        monkeypatch.setattr(sim.jobs, "DENSE_MAX", dense_max)
-        world = PymunkWorld(scenario([(3.0, 5.0), (3.0, 7.5), (3.0, 2.5)], exec_s=60.0))
+        world = PymunkWorld(
+            scenario([(3.0, 5.0), (3.0, 7.5), (3.0, 2.5)], exec_s=60.0), control=control
+        )
+        world.controller.dense_max = dense_max
         send(world, [0, 1, 2], [site] * 3)
         log = []
         for _ in range(250):
             world.advance(0.1)
-            log.append(np.concatenate([world.v_cmd_, world.q_cmd_]))
+            log.append(np.concatenate([world.fleet.v_cmd_mps, world.fleet.q_cmd_mps]))
         logs.append(np.array(log))
-        assert (world.state_ == WORKING).all()
+        assert (world.fleet.state == WORKING).all()
         xy = world.poses()[0]
         gap = np.linalg.norm(xy - site, axis=1)
         first = int(gap.argmin())
@@ -523,17 +525,20 @@ def test_tries_start_again_once_a_robot_got_past_where_it_was_stuck(control, dri
     """A robot that has used its last try and then comes RECOVERED_M (5 m) closer to its site
     than where it got stuck has its tries back: stuck again, it recovers instead of failing.
     One that has not got that far fails with the 'stuck' reason, as before."""
-    world = PymunkWorld(scenario([(2.0, 5.0)], sites=[(18.0, 5.0)], max_recoveries=2))
+    world = PymunkWorld(
+        scenario([(2.0, 5.0)], sites=[(18.0, 5.0)], max_recoveries=2), control=control
+    )
     send(world, [0], [(18.0, 5.0)])
     world.advance(0.2)
-    world.recoveries_[0] = 2  # as if it had got stuck twice, here
-    world.stuck_left_m_[0], world.recovering_ = world.left_m_[0], True
+    f = world.fleet
+    f.recoveries[0] = 2  # as if it had got stuck twice, here
+    f.stuck_left_m[0], world.schedule.recovering = f.left_m[0], True
     world.advance(driven_s)  # 1 s: about 1 m on; 6 s: more than 5 m
-    got_past = world.stuck_left_m_[0] - world.left_m_[0] > 5.0
+    got_past = f.stuck_left_m[0] - f.left_m[0] > 5.0
     assert got_past == (driven_s > 5.0)
-    world._recover(0, world.time_s)  # stuck again
-    failed = [c for c in world.done_ if not c.ok]
+    world.jobs.recover(0, world.time_s)  # stuck again
+    failed = [c for c in world.jobs.done if not c.ok]
     if got_past:
-        assert not failed and world.recoveries_[0] == 1 and world.state_[0] == DRIVING
+        assert not failed and f.recoveries[0] == 1 and f.state[0] == DRIVING
     else:
         assert [c.reason.split(":")[0] for c in failed] == ["stuck"]

@@ -17,9 +17,9 @@ from PIL import Image
 
 from sim.recording import DRIVING, IDLE, WORKING, Trajectory
 from sim.render import frame_times, render_frame, render_frames, render_gif, render_mp4
-from sim.render_frame import FrameScene
-from sim.render_state import robot_poses_at, task_counts_at, task_view_at
-from sim.render_style import STATE_FILL, type_colours
+from sim.render.scene import FrameScene
+from sim.render.style import STATE_FILL, type_colours
+from sim.render.timeline import robot_poses_at, task_counts_at, task_view_at
 from sim.synthetic import synthetic_trajectory
 
 SIZE = (400, 400)
@@ -293,7 +293,7 @@ def test_render_frame_outside_record(hand):
 
 
 def test_mp4_without_ffmpeg_says_so(hand, tmp_path, monkeypatch):
-    monkeypatch.setattr("sim.render.shutil.which", lambda name: None)
+    monkeypatch.setattr("sim.render.animation.shutil.which", lambda name: None)
     with pytest.raises(RuntimeError, match="ffmpeg"):
         render_mp4(hand, tmp_path / "a.mp4", frames=2, size=(128, 128))
     assert not list(tmp_path.iterdir())

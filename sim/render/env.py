@@ -1,9 +1,9 @@
 """RGB frames for the Gymnasium and PettingZoo environments (``render_mode="rgb_array"``).
 
 In a spatial world the environment keeps a :class:`sim.recording.TrajectoryRecorder`, and the
-frame is :func:`sim.render.render_frame` of that recording at the current time: the very frames
-the GIF writer draws. The abstract world has no positions, so its frame is a status board: one
-row per robot (free, or busy with the seconds of work left) and the announced batch (type
+frame is :func:`sim.render.frames.render_frame` of that recording at the current time: the very
+frames the GIF writer draws. The abstract world has no positions, so its frame is a status board:
+one row per robot (free, or busy with the seconds of work left) and the announced batch (type
 colour, star for high priority).
 """
 
@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.render_style import type_colours
+from sim.render.frames import render_frame
+from sim.render.style import type_colours
 
 FRAME_SIZE = (600, 600)
 
@@ -20,8 +21,6 @@ def env_frame(env, size: tuple[int, int] = FRAME_SIZE) -> np.ndarray:
     """(H, W, 3) uint8 frame of an allocation environment (duck-typed: world, batch_, scenario)."""
     recorder = getattr(env, "recorder_", None)
     if recorder is not None and recorder.has_poses():
-        from sim.render import render_frame
-
         traj = recorder.finish()
         return render_frame(traj, float(traj.times_s[-1]), size=size)
     return status_frame(env.world.snapshot(), env.batch_, env.scenario, size)

@@ -3,7 +3,7 @@
 ``FrameScene`` lays out the arena, obstacles, axes and legend once and draws them into a cached
 background. Each ``draw(t_s)`` restores that background, moves the reused artists (``set_data``,
 ``set_offsets``) and draws only them (blitting); moving text is stamped with Pillow
-(``sim.render_text``), the costliest part otherwise.
+(``sim.render.text``), the costliest part otherwise.
 
 Matplotlib is imported inside functions and used through ``Figure`` + ``FigureCanvasAgg``
 directly, so the importing process's backend is never selected or switched and no display is
@@ -18,14 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sim.recording import DRIVING, IDLE, WORKING, Trajectory
-from sim.render_state import (
-    nan_joined,
-    robot_poses_at,
-    task_counts_at,
-    task_view_at,
-    trails_at,
-)
-from sim.render_style import (
+from sim.render.style import (
     ASSIGN_COLOUR,
     DASHED,
     DONE_ALPHA,
@@ -46,6 +39,13 @@ from sim.render_style import (
     add_legend,
     default_style,
     type_colours,
+)
+from sim.render.timeline import (
+    nan_joined,
+    robot_poses_at,
+    task_counts_at,
+    task_view_at,
+    trails_at,
 )
 
 if TYPE_CHECKING:
@@ -258,7 +258,7 @@ class FrameScene:
         )
 
     def _build_text_stamp(self) -> None:
-        from sim.render_text import TextStamp
+        from sim.render.text import TextStamp
 
         s, box = self.scale, self.ax.bbox  # display coordinates, y up
         clip = (

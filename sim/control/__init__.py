@@ -1,0 +1,20 @@
+"""The control period of the pymunk world, twice: over numpy arrays and robot by robot.
+
+``protocol`` says what a control period is and what it works on, ``array`` and ``scalar`` are
+its two implementations, ``registry`` names them and makes the ``"auto"`` choice.
+"""
+
+from sim.control.array import ArrayControl
+from sim.control.protocol import Control, ControlParts
+from sim.control.registry import CONTROLS, SMALL_TEAM, control_kind
+from sim.control.scalar import ScalarControl
+
+__all__ = [
+    "CONTROLS",
+    "SMALL_TEAM",
+    "ArrayControl",
+    "Control",
+    "ControlParts",
+    "ScalarControl",
+    "control_kind",
+]

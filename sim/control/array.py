@@ -1,0 +1,184 @@
+"""The control period over numpy arrays: every robot in each array operation.
+
+For larger teams the cost of a control period is the arithmetic, and numpy does it over the
+robot axis (``sim.drive.DiffDriveController`` holds the vectorised law, ``sim.paths`` the path
+following). Checks that cannot fire yet are skipped until the earliest time they could (the
+schedule in ``sim.fleet``); per-robot Python runs on task events only (``sim.jobs``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.control.protocol import ControlParts
+from sim.drive_law import SPEED_BOUND, next_check_s
+from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M
+from sim.recording import DRIVING, IDLE
+
+FREE_CAP_M = 2.0  # free widths of side steps as far as this (the step is 1 m), then on demand
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ArrayControl:
+    """One control period of the whole fleet over numpy arrays.
+
+    Args:
+        parts: the world's state and collaborators; the motors are read and written in one
+            batch each.
+    """
+
+    name = "array"
+    free_cap_m = FREE_CAP_M  # a side step's free widths exactly only when a robot gets that far
+    keeps_lists = False
+
+    parts: ControlParts
+
+    def period(self, t: float) -> None:
+        """Read poses, advance tasks, steer, cap speeds, limit the wheels, write the motors."""
+        p = self.parts
+        f, sch, c, motors = p.fleet, p.schedule, p.controller, p.motors
+        rob = motors.read()
+        z, th = rob["z"], rob["th"]
+        h = np.exp(1j * th)
+        hc = h.conj()
+        f.moved_m += np.abs(z - f.last_z_m)
+        f.last_z_m[:] = z
+        f.last_th_rad[:] = th
+        v, w, rows = self._steer(z, hc, t)  # rows: robots beyond the free width of their path
+        if t >= sch.prox_check_s:
+            self._near(z, th, h, hc, v, w, t)
+        else:
+            f.clear_way()
+        if sch.n_steer:  # ... and the robots whose heading could carry them out of it
+            v_cmd = f.v_cmd_mps  # the speed next period lies between v_cmd and v
+            reach = np.where(np.abs(v) >= np.abs(v_cmd), v, v_cmd)
+            rows = p.follower.drifting(z, h, reach, c.react_s, c.inv2a_)
+        if sch.n_backoff:  # backing off blind, without a path: mind the obstacles too
+            back = (f.backoff_until_s > t).nonzero()[0]
+            rows = back if rows is None else np.union1d(rows, back)
+        if rows is not None and len(rows):
+            self.obstacle_caps(z, hc, v, rows)
+        v, w, f.q_cmd_mps = c.limit(v, w, f.v_cmd_mps, f.q_cmd_mps)
+        f.v_cmd_mps = v
+        motors.write(z, th, h, v, w)
+        calm = not (sch.n_steer or sch.n_backoff)
+        calm = calm and not (np.count_nonzero(v) or np.count_nonzero(w))
+        sch.resting, sch.calm = calm and sch.calm, calm  # stopped for a whole period
+
+    def _steer(self, z: np.ndarray, hc: np.ndarray, t: float):
+        """Advance every robot's task (progress, yield, stuck, arrival); desired twists and the
+        robots beyond the free width of their path (None: not looked at)."""
+        p = self.parts
+        f, sch, jobs = p.fleet, p.schedule, p.jobs
+        off_path = None
+        go = f.state == DRIVING
+        steered = go | f.yielding if sch.n_yield else go
+        back = None
+        if sch.n_backoff:
+            back = go & (f.backoff_until_s > t)
+            for j in (f.replan & ~back).nonzero()[0].tolist():
+                jobs.replan(j, (z[j].real, z[j].imag), t)
+            go = (f.state == DRIVING) & ~back
+            steered = go | f.yielding
+        if sch.n_steer if back is None else np.count_nonzero(steered):
+            aim, gap, left, corner2, off_path = p.follower.targets(z)
+            v, w = p.controller.steer(hc, aim, gap, corner2)
+            if back is not None or sch.n_steer < len(v):
+                v *= steered
+                w *= steered
+            np.copyto(f.left_m, left, where=steered)
+            if sch.n_yield:
+                stop = f.yielding & ((left < 0.15) | (f.yield_until_s < t))
+                if np.count_nonzero(stop):
+                    for j in stop.nonzero()[0].tolist():
+                        jobs.stop_yield(j)
+                        v[j] = w[j] = 0.0
+                    jobs.refresh()
+            better = left < f.progress_m
+            better &= go
+            if np.count_nonzero(better):
+                np.putmask(f.progress_m, better, left - PROGRESS_M)
+                np.putmask(f.t_progress_s, better, t)
+                if sch.recovering:  # got past where it last got stuck: tries start again
+                    past = better & (left < f.stuck_left_m - RECOVERED_M)
+                    if np.count_nonzero(past):
+                        jobs.recovered(past.nonzero()[0].tolist())
+            if t > sch.stuck_check_s:
+                jobs.check_stuck(go, t)
+            if t >= sch.site_check_s:
+                self._arrive(z, go, v, w, t)
+        else:
+            v, w = np.zeros(len(z)), np.zeros(len(z))
+        if back is not None:
+            v[back], w[back] = f.backoff_cmd[back].T
+        jobs.end_due(t)
+        return v, w, off_path
+
+    def _arrive(self, z: np.ndarray, go: np.ndarray, v: np.ndarray, w: np.ndarray, t: float):
+        """Robots at their site (or beside robots standing there) start work; schedule the next
+        check for when the driving robot nearest its arrival zone could first be in it."""
+        p = self.parts
+        f, c, tol, reach = p.fleet, p.controller, p.arrive_tol_m, p.reach_m
+        gap = np.abs(f.site - z)
+        zone = tol + 2 * reach
+        there = go & (gap <= zone)
+        if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
+            queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]
+            there &= gap <= tol
+            if queue.size:  # touching a robot that stands nearer the site: the site is taken,
+                # and working beside the robots already there counts as arrived
+                standing = (f.state != DRIVING) & ~f.yielding
+                if len(z) <= c.dense_max:  # every queued robot, every standing one
+                    zs = z[standing.nonzero()[0]]
+                    nearer = np.abs(zs[None, :] - f.site[queue, None]) < gap[queue, None]
+                    nearer &= np.abs(zs[None, :] - z[queue, None]) <= reach  # touching
+                    there[queue] = nearer.any(axis=1)
+                else:  # ... against its neighbours only (look_m > reach_m)
+                    i, k = c.neighbour_pairs(z)
+                    queued = np.zeros(len(z), dtype=bool)
+                    queued[queue] = True
+                    sel = (queued[i] & standing[k]).nonzero()[0]
+                    i, k = i[sel], k[sel]
+                    nearer = np.abs(z[k] - f.site[i]) < gap[i]
+                    nearer &= np.abs(z[k] - z[i]) <= reach  # touching
+                    there[queue] = False
+                    there[i[nearer]] = True
+            p.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
+        nearest = float(np.where(go, gap, np.inf).min()) - zone
+        p.schedule.site_check_s = next_check_s(t, nearest, SPEED_BOUND * c.v_max_mps)
+
+    def _near(self, z, th, h, hc, v, w, t: float) -> None:
+        """Proximity caps, keep-right and make-way (writes ``v``, ``w`` in place)."""
+        p = self.parts
+        f, c, reach = p.fleet, p.controller, p.reach_m + YIELD_TRIGGER_M
+        cap, blocker, near, apart = c.proximity(z, hc, v, f.v_cmd_mps)
+        if cap is None:  # no cap binds before two robots could be look_m apart
+            closing = 2.0 * SPEED_BOUND * c.v_max_mps
+            p.schedule.prox_check_s = next_check_s(t, apart - c.look_m, closing)
+            f.clear_way()
+            return
+        v[:] = cap
+        f.blocker, f.near_m = blocker, near
+        closest = float(near.min())
+        if closest < c.keep_right_m:
+            w[:] = c.keep_right(th, w, blocker, near, f.state == DRIVING)
+        if closest < reach:
+            pushing = (f.state == DRIVING) & (near < reach)
+            standing = (f.state == IDLE) & ~f.yielding
+            pushing &= standing[np.maximum(blocker, 0)]
+            if np.count_nonzero(pushing):
+                p.jobs.make_way(pushing.nonzero()[0], blocker, z, h, v, t)
+
+    def obstacle_caps(self, z, hc, v, rows) -> None:
+        """Cap the speed of robots ``rows`` toward their nearest obstacle (writes ``v``).
+
+        Args:
+            z: (m,) positions; hc: (m,) conjugate unit headings; v: (m,) speed commands, m/s.
+        """
+        rows = np.asarray(rows)
+        gap = self.parts.follower.to_obstacle(z[rows])
+        capped = self.parts.controller.wall_cap(hc[rows], np.asarray(v)[rows], gap)
+        for j, vj in zip(rows.tolist(), capped.tolist(), strict=True):
+            v[j] = vj

@@ -1,0 +1,122 @@
+"""The drive law's constants and formulas, once: pure functions of floats or of numpy arrays.
+
+Both control periods use them: :class:`sim.control.ScalarControl` robot by robot with Python
+floats and complex numbers, and :class:`sim.control.ArrayControl` over the robot axis through
+:class:`sim.drive.DiffDriveController` and :class:`sim.motors.Motors`. Each function is written
+with arithmetic operators and ``abs`` only, so the same expression runs on a float and
+elementwise on an array with the same IEEE operations in the same order. ``abs`` is Python's on
+a Python number and numpy's on an array (the two differ in the last bit for complex numbers), and
+a function with no operator (``sqrt``, ``cos``) is passed in by the caller, so each control
+period keeps its exact arithmetic and its runs stay bit-for-bit reproducible.
+
+Clipping a result to a range is left to the caller, as each docstring says: a conditional
+expression per robot in the scalar period (a function call per clip would cost it more than
+the formula), ``np.minimum`` and ``np.maximum`` over arrays.
+
+Points and headings are complex numbers (x + iy and e^{i theta}); wheel state is (v, q = omega
+b / 2), rim speeds v +- q. Speeds are in m/s, distances in m, times in s.
+"""
+
+from __future__ import annotations
+
+import math
+
+HEADING_GAIN = 2.5  # 1/s: omega command per radian of heading error
+TURN_IN_PLACE_RAD = math.pi / 3  # beyond this heading error the robot stops and turns
+CREEP_MPS = 0.15  # closing speed still allowed on contact: robots may nudge, never ram
+KEEP_RIGHT_M = 0.6  # gap below which a robot turns right around a robot not going its way
+KEEP_RIGHT_GAIN = 0.25  # that turn, as a share of the top turn rate
+SAME_WAY_COS = 0.5  # a robot whose heading is within 60 degrees of ours goes our way
+PROXIMITY_DECEL = 0.75  # share of the wheels' braking power planned for around robots and walls
+REACT_PERIODS = 1.0  # a command holds for this many control periods before the next can brake
+AHEAD_DEG = 70.0  # a robot within this angle of the direction of travel is in the way
+ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
+SPEED_BOUND = 1.25  # no robot moves faster than this times the top speed, even when pushed
+COS_TURN = math.cos(TURN_IN_PLACE_RAD)
+COS_AHEAD = math.cos(math.radians(AHEAD_DEG))
+
+
+def steer_speeds(cos_err, gap_m, corner2, align_gain, align_bias, brake2_mps2, sqrt):
+    """The two speeds that bound a robot's forward command toward its waypoint.
+
+    Args:
+        cos_err: cosine of the heading error toward the aim point.
+        gap_m: distance to the waypoint.
+        corner2: squared speed allowed when passing the waypoint (0 at the goal).
+        align_gain, align_bias: the affine map from ``cos_err`` to speed, top speed when aligned
+            and 0 at ``TURN_IN_PLACE_RAD``.
+        brake2_mps2: twice the braking deceleration.
+        sqrt: ``math.sqrt`` or ``np.sqrt``.
+
+    Returns:
+        The speed the heading error allows and the speed from which the robot still brakes to
+        the corner speed within the gap; the command is the first clipped to [0, the second].
+    """
+    return cos_err * align_gain + align_bias, sqrt(gap_m * brake2_mps2 + corner2)
+
+
+def stopping_time_s(v_mps, react_s, inv2a):
+    """Distance a robot at speed ``v_mps`` covers per m/s of it before it stands: the reaction
+    time plus |v| / 2a (``inv2a`` = 1 / 2a), s. Times a closing speed, a stopping distance."""
+    return react_s + abs(v_mps) * inv2a
+
+
+def approach_cap_mps(share_m, tau, two_a, at, at2, sqrt):
+    """Top speed that covers at most ``share_m`` toward an obstacle at bearing cosine ``tau`` > 0
+    when held for the reaction time T and then braked at a: sqrt(2 a s / tau + (a T)^2) - a T.
+
+    Args:
+        share_m: the share of the gap the robot may cover, m.
+        tau: bearing cosine in the direction of travel (> 0).
+        two_a, at, at2: 2 a (m/s^2), a T (m/s) and (a T)^2.
+        sqrt: ``math.sqrt`` or ``np.sqrt``.
+
+    Returns:
+        The cap and the creep speed toward the obstacle, ``CREEP_MPS / tau``: the cap is at
+        least that (the caller takes the larger).
+    """
+    return sqrt(share_m / tau * two_a + at2) - at, CREEP_MPS / tau
+
+
+def pair_share_m(gap_m, theirs_m, mine_m):
+    """Of the gap between two robots, the share robot i may cover: the gap less k's need less
+    k's half of the room that is left, min(g - theirs, (g - theirs + mine) / 2), never below 0.
+
+    Returns:
+        g - theirs and (g - theirs + mine) / 2; the caller takes the smaller, at least 0.
+    """
+    share = gap_m - theirs_m
+    return share, (share + mine_m) * 0.5
+
+
+def rim_speed_mps(v_mps, q_mps):
+    """Speed of the faster wheel rim of a robot commanded (v, q): |v| + |q|."""
+    return abs(v_mps) + abs(q_mps)
+
+
+def twist_from_rims(right_mps, left_mps, v0_mps, q0_mps):
+    """(v, q) after the rims change by ``right_mps`` and ``left_mps`` from (v0, q0)."""
+    return (right_mps + left_mps) * 0.5 + v0_mps, (right_mps - left_mps) * 0.5 + q0_mps
+
+
+def on_arc(v_mps, omega_radps):
+    """True where the command (v, omega) is driven as an arc about a centre of rotation: its
+    radius |v / omega| is below ``ARC_MAX_RADIUS_M`` (a flatter one is driven straight)."""
+    return abs(v_mps) < abs(omega_radps) * ARC_MAX_RADIUS_M
+
+
+def control_body(z, h, v_mps, omega_radps, radius_m):
+    """Where a robot's kinematic control body sits and how fast it moves (x + iy) to drive the
+    robot at (v, omega): at the centre of rotation z + i R h (``radius_m`` = R = v / omega on an
+    arc, 0 straight), moving at (v - omega R) h, which is zero on an arc."""
+    return radius_m * (1j * h) + z, (v_mps - omega_radps * radius_m) * h
+
+
+def goes_our_way(th_rad, th_other_rad, cos):
+    """True where the other robot's heading is within 60 degrees of ours (``cos`` given)."""
+    return cos(th_rad - th_other_rad) > SAME_WAY_COS
+
+
+def next_check_s(t_s: float, gap_m: float, closing_mps: float) -> float:
+    """The earliest time a gap of ``gap_m`` (0 if negative) could close at ``closing_mps``."""
+    return t_s + max(gap_m, 0.0) / closing_mps

@@ -1,0 +1,182 @@
+"""The state of the pymunk world's fleet: per-robot arrays, the schedule of checks, the clock.
+
+:class:`FleetState` is every per-robot quantity the world keeps between control periods, one
+entry per robot in each array and each documented once, here. :class:`Schedule` holds what the
+control period may skip and when it must look again; :class:`Clock` counts physics steps. The
+world (``sim.physics.PymunkWorld``) makes all three at reset and hands them to its collaborators,
+the task bookkeeping (``sim.jobs.Jobs``) and a control period (``sim.control``), which read and
+write them in place.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sim.recording import IDLE
+
+
+@dataclass(slots=True, eq=False)
+class FleetState:
+    """Per-robot state of the pymunk world; every array has one entry per robot (m).
+
+    Positions are complex numbers x + iy (m), headings angles (rad) from +x. A collaborator may
+    write an entry in place or replace a whole array with one of the same shape and dtype.
+
+    Attributes:
+        state: int8, ``IDLE``, ``DRIVING`` or ``WORKING`` (``sim.recording``).
+        task: int64, id of the task the robot holds; -1 while free.
+        task_type: int64, that task's type.
+        t_alloc_s: when that task was allocated, s.
+        bid: the cost the robot bid for it.
+        site: complex, where the task is to be done, m (the start before any task).
+        work_end_s: when the work at the site ends, s (while ``WORKING``).
+        deadline_s: past this time the task fails, s (while it holds one).
+        odo0_m: ``moved_m`` when the task was allocated, m.
+        left_m: planned path length still to drive, m.
+        progress_m: path left below this counts as progress (restarts the stuck clock), m.
+        t_progress_s: when the robot last made progress, s; inf unless driving, so that the
+            minimum finds the stalest driving robot.
+        recoveries: int, recovery tries since the robot last got going.
+        stuck_left_m: path left when it last got stuck, m (inf: not since it got going).
+        backoff_until_s: backing off blind until then, s (-inf: not backing off).
+        backoff_cmd: (m, 2), the back-off command: forward speed m/s, turn rate rad/s.
+        replan: bool, plan a new path to the site once the back-off ends.
+        yielding: bool, idle and stepping out of a driving robot's way.
+        yield_until_s: the side step is given up at this time, s.
+        v_cmd_mps: forward speed commanded in the last control period, m/s.
+        q_cmd_mps: half the rim speed difference commanded then, m/s (rims at v +- q).
+        blocker: int, the nearest robot in the way (-1: none within reach of a speed cap).
+        near_m: that robot's centre distance, m (inf: none).
+        last_z_m: complex, positions read at the last control period, m.
+        last_th_rad: headings read then, rad.
+        moved_m: distance driven since reset, m.
+        nobody: (-1 for every robot, inf for every robot), never written: ``blocker`` and
+            ``near_m`` while no robot is in any robot's way (:meth:`clear_way`).
+    """
+
+    state: np.ndarray
+    task: np.ndarray
+    task_type: np.ndarray
+    t_alloc_s: np.ndarray
+    bid: np.ndarray
+    site: np.ndarray
+    work_end_s: np.ndarray
+    deadline_s: np.ndarray
+    odo0_m: np.ndarray
+    left_m: np.ndarray
+    progress_m: np.ndarray
+    t_progress_s: np.ndarray
+    recoveries: np.ndarray
+    stuck_left_m: np.ndarray
+    backoff_until_s: np.ndarray
+    backoff_cmd: np.ndarray
+    replan: np.ndarray
+    yielding: np.ndarray
+    yield_until_s: np.ndarray
+    v_cmd_mps: np.ndarray
+    q_cmd_mps: np.ndarray
+    blocker: np.ndarray
+    near_m: np.ndarray
+    last_z_m: np.ndarray
+    last_th_rad: np.ndarray
+    moved_m: np.ndarray
+    nobody: tuple[np.ndarray, np.ndarray]
+
+    @classmethod
+    def at_start(cls, starts_xy_m: np.ndarray) -> FleetState:
+        """Every robot idle and free at its start (x, y), facing +x, with nothing commanded."""
+        m = len(starts_xy_m)
+        site = np.asarray(starts_xy_m, dtype=float) @ np.array([1.0, 1j])
+        return cls(
+            state=np.full(m, IDLE, dtype=np.int8),
+            task=np.full(m, -1, dtype=np.int64),
+            task_type=np.zeros(m, dtype=np.int64),
+            t_alloc_s=np.zeros(m),
+            bid=np.zeros(m),
+            site=site,
+            work_end_s=np.zeros(m),
+            deadline_s=np.zeros(m),
+            odo0_m=np.zeros(m),
+            left_m=np.zeros(m),
+            progress_m=np.full(m, np.inf),
+            t_progress_s=np.full(m, np.inf),
+            recoveries=np.zeros(m, dtype=int),
+            stuck_left_m=np.full(m, np.inf),
+            backoff_until_s=np.full(m, -np.inf),
+            backoff_cmd=np.zeros((m, 2)),
+            replan=np.zeros(m, dtype=bool),
+            yielding=np.zeros(m, dtype=bool),
+            yield_until_s=np.zeros(m),
+            v_cmd_mps=np.zeros(m),
+            q_cmd_mps=np.zeros(m),
+            blocker=np.full(m, -1),
+            near_m=np.full(m, np.inf),
+            last_z_m=site.copy(),
+            last_th_rad=np.zeros(m),
+            moved_m=np.zeros(m),
+            nobody=(np.full(m, -1), np.full(m, np.inf)),
+        )
+
+    def clear_way(self) -> None:
+        """No robot is in any robot's way (``blocker`` -1, ``near_m`` inf for all)."""
+        self.blocker, self.near_m = self.nobody
+
+
+@dataclass(slots=True, eq=False)
+class Schedule:
+    """What a control period may skip, and when each check is due again.
+
+    A check that cannot fire yet is skipped until the earliest time it could. ``Jobs.refresh``
+    recomputes the counts and the next end of work and deadline after every task event and makes
+    the other checks due at once; the control period pushes them back as it finds nothing to do.
+
+    Attributes:
+        next_end_s: earliest end of work of a working robot, s.
+        next_deadline_s: earliest deadline of a task in progress, s.
+        stuck_check_s: no driving robot can be stuck before this, s.
+        site_check_s: no driving robot can be in its arrival zone before this, s.
+        prox_check_s: no robot that steers can come within ``look_m`` of another before this, s.
+        n_backoff: robots backing off or waiting to replan.
+        n_yield: robots yielding.
+        n_steer: robots that steer: driving (backing off too) or yielding.
+        resting: nothing has steered and every wheel has stood still for two periods: a period
+            has nothing to compute.
+        calm: the same for the last period alone.
+        recovering: some robot has a finite ``stuck_left_m``.
+        state_list: ``FleetState.state`` as a Python list (kept for the scalar control only).
+        steer_list: the robots that steer, as a list (kept for the scalar control only).
+    """
+
+    next_end_s: float = np.inf
+    next_deadline_s: float = np.inf
+    stuck_check_s: float = -np.inf
+    site_check_s: float = -np.inf
+    prox_check_s: float = -np.inf
+    n_backoff: int = 0
+    n_yield: int = 0
+    n_steer: int = 0
+    resting: bool = True
+    calm: bool = True
+    recovering: bool = False
+    state_list: list[int] = field(default_factory=list)
+    steer_list: list[int] = field(default_factory=list)
+
+
+@dataclass(slots=True, eq=False)
+class Clock:
+    """Simulated time as a count of fixed physics steps (so that time never drifts).
+
+    Attributes:
+        dt_s: the physics step, s.
+        steps: physics steps taken since reset.
+    """
+
+    dt_s: float
+    steps: int = 0
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time since reset, s."""
+        return self.steps * self.dt_s

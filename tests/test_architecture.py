@@ -35,8 +35,6 @@ KNOWN_PRIVATE = {
     # (user, private name): exceptions still to fix, each in a module that is being reworked on
     # another branch (the pymunk world, rendering, the bench modules), where the name becomes
     # public. The list only shrinks: an entry that no longer occurs fails the test below.
-    ("sim.physics", "sim.jobs._xy"),
-    ("sim.bench_render", "sim.render._time_decimals"),
     ("scenarios.bench", "sim.bench_sim._bare"),
     ("scenarios.bench", "scenarios.protocol._load"),
 }

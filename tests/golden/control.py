@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import functools
 
-import scenarios.protocol
+import scenarios.experiments.protocol as protocol
 import sim
 
 
@@ -19,9 +19,9 @@ def forced_control(path: str | None):
     if path is None:
         yield
         return
-    old = scenarios.protocol.make_world
-    scenarios.protocol.make_world = functools.partial(sim.make_world, control=path)
+    old = protocol.make_world
+    protocol.make_world = functools.partial(sim.make_world, control=path)
     try:
         yield
     finally:
-        scenarios.protocol.make_world = old
+        protocol.make_world = old

@@ -7,7 +7,7 @@ unicode array.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +35,8 @@ class Trajectory:
     obstacles: np.ndarray  # (P, V, 2) m, polygons padded with NaN
     type_names: np.ndarray  # (n,) str
     robot_names: np.ndarray  # (m,) str
+    site_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (S, 2) m: every site
+    site_type: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (S,)
 
     def save(self, path: Path) -> None:
         """Write an ``.npz`` atomically (temporary file, then rename)."""
@@ -45,14 +47,17 @@ class Trajectory:
 
     @classmethod
     def load(cls, path: Path) -> Trajectory:
+        """Read a saved trajectory (files from before sites were recorded load without them)."""
         with np.load(Path(path), allow_pickle=False) as data:
-            return cls(**{k: data[k] for k in cls.__dataclass_fields__})
+            return cls(**{k: data[k] for k in cls.__dataclass_fields__ if k in data.files})
 
 
 class TrajectoryRecorder:
     """Collects poses (from the world) and task events (from the experiment loop)."""
 
-    def __init__(self, arena_wh, obstacles, type_names, robot_names, every_s: float = 0.1) -> None:
+    def __init__(
+        self, arena_wh, obstacles, type_names, robot_names, every_s: float = 0.1, sites=()
+    ) -> None:
         self.every_s = every_s  # record poses at most this often (simulated seconds)
         self.arena_wh = np.asarray(arena_wh, dtype=float)
         width = max((len(p) for p in obstacles), default=0)
@@ -61,6 +66,9 @@ class TrajectoryRecorder:
             self.obstacles[k, : len(poly)] = poly
         self.type_names = np.asarray(type_names, dtype=str)
         self.robot_names = np.asarray(robot_names, dtype=str)
+        pts = [(xy, i) for i, per_type in enumerate(sites) for xy in per_type]
+        self.site_xy = np.array([p for p, _ in pts], dtype=float).reshape(-1, 2)
+        self.site_type = np.array([i for _, i in pts], dtype=np.int64)
         self._times: list[float] = []
         self._pos: list[np.ndarray] = []
         self._head: list[np.ndarray] = []
@@ -74,7 +82,9 @@ class TrajectoryRecorder:
         """A recorder for a spatial scenario's arena, obstacles, task types and robots."""
         sp = scenario.spatial
         names = [r.name for r in scenario.robots]
-        return cls((sp.width_m, sp.height_m), sp.obstacles, scenario.task_types, names, every_s)
+        return cls(
+            (sp.width_m, sp.height_m), sp.obstacles, scenario.task_types, names, every_s, sp.sites
+        )
 
     def has_poses(self) -> bool:
         return bool(self._times)
@@ -142,4 +152,6 @@ class TrajectoryRecorder:
             obstacles=self.obstacles,
             type_names=self.type_names,
             robot_names=self.robot_names,
+            site_xy=self.site_xy,
+            site_type=self.site_type,
         )

@@ -190,6 +190,7 @@ def cmd_render(args) -> int:
     )
     from sim.recording import TrajectoryRecorder
     from sim.render import render_gif, render_mp4
+    from sim.render.style import fitted_height
 
     sc = load_named(args.scenario)
     if sc.spatial is None:
@@ -217,21 +218,28 @@ def cmd_render(args) -> int:
         )
     if args.trajectory is not None:
         traj.save(args.trajectory)
+    width, height = args.size
+    size = (width, height if height is not None else fitted_height(width, traj.arena_wh))
     kw = {
         "frames": args.frames,
         "fps": args.fps,
-        "size": args.size,
+        "size": size,
         "t_from": args.t_from,
         "t_to": t_to,
         "trail_s": args.trail,
     }
     try:
-        render_gif(traj, args.gif, **kw)
+        desc = f"render: draw {args.frames} frames"
+        with progress_bar(args.frames, desc, "frame", not args.no_progress) as bar:
+            render_gif(traj, args.gif, on_frame=bar.update, **kw)
         if args.mp4 is not None:
             render_mp4(traj, args.mp4, **kw)
     except (ValueError, RuntimeError) as exc:
         raise UserError(str(exc)) from None
-    print(f"wrote {args.gif} ({args.frames} frames, {args.t_from:.0f}-{t_to:.0f} s of {end:.0f} s)")
+    print(
+        f"wrote {args.gif} ({args.frames} frames of {size[0]}x{size[1]} px, "
+        f"{args.t_from:.0f}-{t_to:.0f} s of {end:.0f} s)"
+    )
     return 0
 
 

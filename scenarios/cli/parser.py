@@ -241,7 +241,13 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--mp4", type=Path, default=None, help="also write an MP4 (needs ffmpeg)")
     g.add_argument("--frames", type=_positive_int, default=200, help="frames in the GIF")
     g.add_argument("--fps", type=_positive_int, default=20, help="frames per second of playback")
-    g.add_argument("--size", type=_size, default=(600, 600), help="WxH pixels (default 600x600)")
+    g.add_argument(
+        "--size",
+        type=_size,
+        default=(600, None),
+        help="W or WxH pixels; W alone fits the height to the arena, so no band stays empty "
+        "(default 600)",
+    )
     g.add_argument(
         "--from", dest="t_from", type=float, default=0.0, help="start, simulated s (default 0)"
     )
@@ -392,11 +398,17 @@ def _name_list(allowed: set[str]):
     return parse
 
 
-def _size(text: str) -> tuple[int, int]:
+def _size(text: str) -> tuple[int, int | None]:
+    """'600x480' -> (600, 480); '600' -> (600, None): the height is fitted to the arena."""
     try:
-        w, h = (int(x) for x in text.lower().split("x"))
+        parts = [int(x) for x in text.lower().split("x")]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"size must be WxH, e.g. 600x600, got {text!r}") from None
-    if not (64 <= w <= 4096 and 64 <= h <= 4096):
-        raise argparse.ArgumentTypeError(f"size {w}x{h} outside 64..4096 pixels per side")
+        parts = []
+    if len(parts) not in (1, 2):
+        raise argparse.ArgumentTypeError(
+            f"size must be W or WxH, e.g. 600 or 600x600, got {text!r}"
+        )
+    w, h = parts[0], parts[1] if len(parts) == 2 else None
+    if not (64 <= w <= 4096 and (h is None or 64 <= h <= 4096)):
+        raise argparse.ArgumentTypeError(f"size {text} outside 64..4096 pixels per side")
     return w, h

@@ -11,6 +11,7 @@ import math
 import os
 import shutil
 import subprocess
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -108,8 +109,11 @@ def render_gif(
     t_from: float | None = None,
     t_to: float | None = None,
     trail_s: float = 10.0,
+    on_frame: Callable[[], None] | None = None,
 ) -> Path:
     """Write an animated, endlessly looping GIF of ``traj``; returns its path.
+
+    ``on_frame`` is called after every frame is drawn (progress bars).
 
     Frames are as in :func:`render_frames`; ``fps`` (at most 50) sets the playback rate. The file
     is written beside ``path`` under a temporary name and renamed into place, so a reader never
@@ -132,6 +136,8 @@ def render_gif(
         rgba = scene.draw(float(t_s))
         rgb = Image.frombuffer("RGBA", (scene.width, scene.height), rgba, "raw", "RGBA", 0, 1)
         images.append(rgb.convert("RGB").quantize(palette=palette, dither=Image.Dither.NONE))
+        if on_frame is not None:
+            on_frame()
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = _tmp_beside(path, ".gif")
     try:

@@ -20,10 +20,13 @@ import numpy as np
 from sim.recording import DRIVING, IDLE, WORKING, Trajectory
 from sim.render.style import (
     ASSIGN_COLOUR,
+    BOTTOM_PX,
     DASHED,
     DONE_ALPHA,
     DPI,
+    GAP_PX,
     HIGH_PX,
+    LEFT_PX,
     LOST_HIGH_PX,
     LOST_LOW_PX,
     LOW_PX,
@@ -32,12 +35,14 @@ from sim.render.style import (
     OBSTACLE_FACE,
     OUTSIDE_FACE,
     ROBOT_RADIUS_M,
+    SITE_PX,
     STATE_FILL,
     TEXT_COLOUR,
     TRAIL_ALPHA,
     TRAIL_COLOUR,
     add_legend,
     default_style,
+    layout_options,
     type_colours,
 )
 from sim.render.timeline import (
@@ -111,20 +116,26 @@ class FrameScene:
         return pixels * self.scale * 72.0 / DPI
 
     def _layout(self) -> None:
-        """Arena axes at the top left with the arena's aspect, legend column on the right."""
+        """Arena axes with the arena's aspect, and the legend where it costs the arena least:
+        in a column on the right or in a row underneath, whichever leaves the arena larger."""
         s, width, height = self.scale, self.width, self.height
         arena_w, arena_h = (float(v) for v in self.traj.arena_wh)
         self.pad_m = 0.03 * max(arena_w, arena_h)  # robots at the walls are not clipped
-        left, bottom, self.top_px, gap, legend_w = 26 * s, 18 * s, 30 * s, 8 * s, 134 * s
-        box_w = max(width - legend_w - left - gap, 10.0)
-        box_h = max(height - self.top_px - bottom, 10.0)
         span_w, span_h = arena_w + 2 * self.pad_m, arena_h + 2 * self.pad_m
+        self.top_px = 30 * s
+        options = layout_options(width, height, span_w, span_h, s)
+        mode = max(options, key=lambda k: (options[k][3], k == "right"))  # larger arena wins
+        x0, box_w, box_h, _ = options[mode]
+        self.legend_mode = mode
         self.px_per_m = min(box_w / span_w, box_h / span_h)
         ax_w, ax_h = span_w * self.px_per_m, span_h * self.px_per_m
-        x0 = left + (box_w - ax_w) / 2
-        y0 = height - self.top_px - ax_h
+        x0 = x0 + (box_w - ax_w) / 2
+        y0 = height - self.top_px - ax_h - (box_h - ax_h) / 2
         self.ax = self.fig.add_axes((x0 / width, y0 / height, ax_w / width, ax_h / height))
-        self.legend_x = (x0 + ax_w + gap) / width
+        if mode == "right":
+            self.legend_xy = ((x0 + ax_w + GAP_PX * s) / width, 1.0 - self.top_px / height)
+        else:
+            self.legend_xy = (LEFT_PX * s / width, (y0 - BOTTOM_PX * s - GAP_PX * s) / height)
 
     def _build_static(self) -> None:
         from matplotlib.patches import Polygon, Rectangle
@@ -148,16 +159,22 @@ class FrameScene:
             pts = poly[np.all(np.isfinite(poly), axis=1)]
             if len(pts) >= 3:
                 ax.add_patch(Polygon(pts, closed=True, linewidth=self._pt(1.2), zorder=1, **block))
+        sites = np.asarray(traj.site_xy, dtype=float).reshape(-1, 2)
+        if len(sites):
+            edge = self.type_rgba[np.asarray(traj.site_type, dtype=int)]
+            ax.scatter(*sites.T, s=self._pt(SITE_PX) ** 2, marker="o", facecolors="white",
+                       edgecolors=edge, linewidths=1.4 * s, zorder=1.5)  # fmt: skip
         note = f"arena {arena_w:g} \u00d7 {arena_h:g} m\nobstacles shaded"
+        note += "\nsites: hollow when idle" if len(sites) else ""
         add_legend(
             self.fig,
-            self.legend_x,
-            1.0 - self.top_px / self.height,
+            *self.legend_xy,
             self.scale,
             self.trail_s,
             self.type_rgba,
             self.traj.type_names,
             note,
+            row=self.legend_mode == "below",
         )
 
     # --- moving artists --------------------------------------------------------------------
@@ -304,8 +321,8 @@ class FrameScene:
 
         c = task_counts_at(traj, t_s)
         self._title = (
-            f"t = {t_s:.{self.time_decimals}f} s    done {c['done']}    "
-            f"lost {c['lost']}    announced {c['announced']}"
+            f"t = {t_s:.{self.time_decimals}f} s   done {c['done']}   lost {c['lost']}   "
+            f"in progress {c['in_progress']}   announced {c['announced']}"
         )
         if self.title is not None:
             self.title.set_text(self._title)
@@ -330,7 +347,8 @@ class FrameScene:
         for artist in self._animated:
             artist.draw(renderer)
         buf = np.asarray(self.canvas.buffer_rgba())
-        self.text.stamp(buf, self._title, self.pixel_xy(self._xy + 0.75 * self.robot_r_m))
+        r_px = self.robot_r_m * self.px_per_m
+        self.text.stamp(buf, self._title, self.pixel_xy(self._xy), r_px)
         return buf
 
     def pixel_xy(self, xy_m: np.ndarray) -> np.ndarray:

@@ -31,6 +31,13 @@ OBSTACLE_FACE, OBSTACLE_EDGE = "#b9ad9b", "#6e6353"
 DONE_ALPHA = 0.25
 HIGH_PX, LOW_PX, LOST_HIGH_PX, LOST_LOW_PX = 17.0, 8.0, 13.0, 9.0  # task marker sizes
 DASHED = (0, (1.5, 1.5))
+SITE_PX = 9  # hollow ring of an idle task site
+# frame layout, in pixels at scale 1 (a 600-pixel side)
+LEFT_PX, BOTTOM_PX, RIGHT_PX, GAP_PX = 26, 18, 6, 8
+TOP_PX = 30  # the title line
+LEGEND_W_PX = 134  # legend column on the right
+LEGEND_ROW_H_PX = 104  # legend row underneath
+LEGEND_COL_H_PX = 350  # height the legend column needs
 
 
 def type_colours(n: int) -> np.ndarray:
@@ -90,6 +97,43 @@ def legend_entries(
     return (("Robots (fill = state)", robots), ("Tasks", tasks), ("Task types (colour)", types))
 
 
+def layout_options(
+    width: float, height: float, span_w: float, span_h: float, scale: float
+) -> dict[str, tuple[float, float, float, float]]:
+    """For the legend on the "right" and "below": (left px, box width, box height, px per m)
+    of the box the arena is fitted into, in a frame of ``width`` x ``height`` pixels."""
+    s = scale
+    box_h = max(height - TOP_PX * s - BOTTOM_PX * s, 10.0)
+    right_w = max(width - LEGEND_W_PX * s - LEFT_PX * s - GAP_PX * s, 10.0)
+    below_w = max(width - LEFT_PX * s - RIGHT_PX * s, 10.0)
+    below_h = max(box_h - GAP_PX * s - LEGEND_ROW_H_PX * s, 10.0)
+    right = (LEFT_PX * s, right_w, box_h, min(right_w / span_w, box_h / span_h))
+    below = (LEFT_PX * s, below_w, below_h, min(below_w / span_w, below_h / span_h))
+    if box_h < LEGEND_COL_H_PX * s:  # the column would not fit: only the row is possible
+        return {"below": below}
+    return {"right": right, "below": below}
+
+
+def fitted_height(width: int, arena_wh, scale: float | None = None) -> int:
+    """Frame height (pixels) for ``width`` with no empty band: the arena fills its box.
+
+    The legend goes in a column on the right when the frame is then tall enough for it, else
+    in a row underneath.
+    """
+    s = float(np.clip(width / 600.0, 0.5, 2.0)) if scale is None else scale
+    arena_w, arena_h = (float(v) for v in arena_wh)
+    pad = 0.03 * max(arena_w, arena_h)
+    span_w, span_h = arena_w + 2 * pad, arena_h + 2 * pad
+    right_w = width - LEGEND_W_PX * s - LEFT_PX * s - GAP_PX * s
+    h_right = (TOP_PX + BOTTOM_PX) * s + right_w * span_h / span_w
+    if h_right >= (TOP_PX + BOTTOM_PX + LEGEND_COL_H_PX) * s:
+        return int(np.ceil(h_right))
+    below_w = width - (LEFT_PX + RIGHT_PX) * s
+    return int(
+        np.ceil((TOP_PX + BOTTOM_PX + GAP_PX + LEGEND_ROW_H_PX) * s + below_w * span_h / span_w)
+    )
+
+
 def add_legend(
     fig: Figure,
     x: float,
@@ -99,10 +143,12 @@ def add_legend(
     type_rgba: np.ndarray,
     type_names: Iterable[str],
     note: str,
+    row: bool = False,
 ) -> None:
-    """Stack the three legends from (x, top) down (figure fractions), then ``note`` below them."""
+    """The three legends from (x, top) (figure fractions), then ``note``: stacked downwards in
+    a column, or with ``row=True`` side by side to the right (types in several columns)."""
     renderer = fig.canvas.get_renderer()
-    height = fig.bbox.height
+    height, width = fig.bbox.height, fig.bbox.width
     spacing = {
         "handlelength": 1.6,
         "handletextpad": 0.5,
@@ -111,10 +157,14 @@ def add_legend(
         "borderaxespad": 0.0,
         "columnspacing": 0.8,
     }
+    x0 = x
     for title, entries in legend_entries(scale, trail_s, type_rgba, type_names):
         if not entries:
             continue
         handles, labels = zip(*entries, strict=True)
+        ncol = 1 if len(entries) <= 10 else 2
+        if row and len(entries) > 5:
+            ncol = -(-len(entries) // 5)
         leg = fig.legend(
             handles,
             labels,
@@ -125,13 +175,17 @@ def add_legend(
             title=title,
             title_fontsize=8 * scale,
             alignment="left",
-            ncol=1 if len(entries) <= 10 else 2,
+            ncol=ncol,
             **spacing,
         )
         leg.get_title().set_fontweight("bold")
-        top = (leg.get_window_extent(renderer).y0 - 10 * scale) / height
+        box = leg.get_window_extent(renderer)
+        if row:
+            x = (box.x1 + 14 * scale) / width
+        else:
+            top = (box.y0 - 10 * scale) / height
     fig.text(
-        x + 3 * scale / fig.bbox.width,
+        (x if row else x0) + 3 * scale / width,
         top,
         note,
         va="top",

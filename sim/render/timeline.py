@@ -42,12 +42,17 @@ def trails_at(traj: Trajectory, t_s: float, trail_s: float, xy_now: np.ndarray) 
 
 
 def task_counts_at(traj: Trajectory, t_s: float) -> dict[str, int]:
-    """Announced, done and lost (never allocated) task counts at ``t_s``."""
+    """Announced, done, lost (never allocated) and in-progress (allocated, not done yet) task
+    counts at ``t_s``. Tasks are allocated when announced, so announced = done + lost + in
+    progress (a failed task counts as done when it ends: the record marks its end)."""
     announced = traj.t_announce <= t_s
+    done = traj.t_done <= t_s
+    in_progress = announced & (traj.t_alloc <= t_s) & ~done & (traj.task_robot >= 0)
     return {
         "announced": int(announced.sum()),
-        "done": int((traj.t_done <= t_s).sum()),
+        "done": int(done.sum()),
         "lost": int((announced & (traj.task_robot < 0)).sum()),
+        "in_progress": int(in_progress.sum()),
     }
 
 

@@ -147,18 +147,30 @@ def test_task_appears_is_taken_fades_and_goes(hand, scene):
     assert np.abs(pixel(gone, site) - white).max() == 0
 
 
+def nearest_colour_distance(frame: np.ndarray, col_row: np.ndarray, colour) -> int:
+    """Smallest max-channel distance to ``colour`` among the 3 x 3 pixels around a point (a
+    marker a few pixels wide, centred between pixels, is anti-aliased at its exact centre)."""
+    col, row = (int(v) for v in np.floor(col_row))
+    patch = frame[row - 1 : row + 2, col - 1 : col + 2, :3].astype(int)
+    return int(np.abs(patch - np.asarray(colour)).max(axis=-1).min())
+
+
 def test_lost_task_is_marked_then_vanishes(hand, scene):
     site = scene.pixel_xy(hand.task_xy[1])[0]
     colour = np.round(type_colours(2)[1, :3] * 255).astype(int)
+    white = (255, 255, 255)
     assert np.abs(pixel(render_frame(hand, 1.5, size=SIZE), site) - 255).max() == 0
-    assert np.abs(pixel(render_frame(hand, 3.0, size=SIZE), site) - colour).max() <= 3
+    assert nearest_colour_distance(render_frame(hand, 3.0, size=SIZE), site, colour) <= 3
     assert np.abs(pixel(render_frame(hand, 13.0, size=SIZE), site) - 255).max() == 0
+    assert nearest_colour_distance(render_frame(hand, 13.0, size=SIZE), site, white) == 0
 
 
 def test_counts(hand):
-    assert task_counts_at(hand, 0.5) == {"announced": 0, "done": 0, "lost": 0}
-    assert task_counts_at(hand, 3.0) == {"announced": 2, "done": 0, "lost": 1}
-    assert task_counts_at(hand, 7.0) == {"announced": 2, "done": 1, "lost": 1}
+    zero = {"announced": 0, "done": 0, "lost": 0, "in_progress": 0}
+    assert task_counts_at(hand, 0.5) == zero
+    # task 0 allocated at 1 s, done at 6 s; task 1 announced at 2 s and lost
+    assert task_counts_at(hand, 3.0) == {"announced": 2, "done": 0, "lost": 1, "in_progress": 1}
+    assert task_counts_at(hand, 7.0) == {"announced": 2, "done": 1, "lost": 1, "in_progress": 0}
 
 
 def test_pose_interpolation(hand):
@@ -391,3 +403,63 @@ def test_task_view(hand):
     assert not after.taken.any()
     later = task_view_at(hand, 13.0, 5.0)  # both events older than the window
     assert not later.done.any() and not later.lost.any()
+
+
+# --- layout, sites and labels (README: the arena fills the frame) ----------------------------
+
+
+def test_fitted_height_leaves_no_empty_band(hand):
+    from sim.render.style import fitted_height
+
+    height = fitted_height(600, hand.arena_wh)
+    scene = FrameScene(hand, (600, height))
+    box = scene.ax.get_position()  # figure fractions
+    used = box.height * height + scene.top_px + 18 * scene.scale  # arena + title + tick labels
+    assert scene.legend_mode == "right"
+    assert abs(used - height) <= 1.5  # no band under the arena
+    assert height < 600  # a square arena beside a legend column needs less than a square frame
+
+
+def test_a_square_frame_puts_the_legend_where_the_arena_gets_larger(hand):
+    from sim.render.style import layout_options
+
+    scene = FrameScene(hand, (600, 600))
+    span = 20.0 + 2 * scene.pad_m
+    options = layout_options(600, 600, span, span, scene.scale)
+    best = max(options, key=lambda k: options[k][3])
+    assert scene.legend_mode == best == "below"
+    assert scene.px_per_m == pytest.approx(options["below"][3])
+    assert options["below"][3] > options["right"][3]
+
+
+def test_idle_sites_are_drawn_hollow_in_their_type_colour(hand):
+    import dataclasses
+
+    with_sites = dataclasses.replace(
+        hand, site_xy=np.array([[15.0, 15.0], [10.0, 17.0]]), site_type=np.array([1, 0])
+    )
+    scene = FrameScene(with_sites, SIZE)
+    frame = render_frame(with_sites, 1.5, size=SIZE)  # no task at (10, 17) ever
+    centre = scene.pixel_xy(np.array([10.0, 17.0]))[0]
+    col, row = (int(v) for v in np.floor(centre))
+    ring = frame[row - 8 : row + 9, col - 8 : col + 9, :3].astype(int)
+    colour = np.round(type_colours(2)[0, :3] * 255).astype(int)
+    assert np.abs(ring - colour).max(axis=-1).min() <= 40  # the ring in the type's colour
+    assert np.abs(frame[row, col, :3].astype(int) - 255).max() == 0  # hollow: white inside
+    plain = render_frame(hand, 1.5, size=SIZE)
+    assert np.abs(plain[row - 8 : row + 9, col - 8 : col + 9, :3].astype(int) - 255).max() == 0
+
+
+def test_labels_never_overlap_and_are_dropped_when_no_corner_is_free():
+    from sim.render.text import place_labels
+
+    sizes = [(20, 10)] * 6
+    lone = place_labels(np.array([[100.0, 100.0]]), sizes[:1], 8.0)
+    assert lone.tolist() == [[106.0, 94.0]]  # upper right of the robot, as labels always sat
+    crowd = np.array([[100.0, 100.0]] * 6)  # six robots on one spot: four corners, two dropped
+    anchors = place_labels(crowd, sizes, 8.0)
+    placed = np.flatnonzero(np.isfinite(anchors[:, 0]))
+    assert placed.tolist() == [0, 1, 2, 3]
+    boxes = [(x, y - 10, x + 20, y) for x, y in anchors[placed]]
+    for a, b in itertools.combinations(boxes, 2):
+        assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]

@@ -128,7 +128,7 @@ def test_missing_site_list_for_a_type():
     "key, value, needle",
     [
         ("dt_s", 0.0, "spatial.dt_s: must be > 0"),
-        ("dt_s", -1.0, "spatial.dt_s: must be >= 0"),
+        ("dt_s", -1.0, "spatial.dt_s: must be > 0, got -1.0"),
         ("dt_s", float("nan"), "spatial.dt_s: must be finite"),
         ("width_m", float("inf"), "spatial.width_m: must be finite"),
         ("control_hz", 1000.0, "spatial.control_hz: control (1000 Hz) cannot run faster"),

@@ -7,6 +7,8 @@ R1 hesitant (behaviour 1, u = 0.5), R2 regular (behaviour 0, with u = 1.25 that 
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -120,3 +122,17 @@ def test_eq9_wait_reward_is_divided_by_tem():
 def test_ql_mrta_rewards_are_unscaled(prefer, expected):
     q = q_after_one_set(QLAllocator(scenario()), prefer)
     np.testing.assert_allclose(q, [expected] * 3, rtol=1e-12)
+
+
+def test_refusal_is_logged_with_the_auction_count_and_shrinks_the_space():
+    sc = scenario(shared=True)
+    sc = dataclasses.replace(
+        sc, experience=dataclasses.replace(sc.experience, delta_u=0.6, n_min=4, coverage_k=1)
+    )
+    alloc = experienced(ExpTAllocator(sc), (0, 0, 0))  # on A: R1 hesitant (u = 0.5)
+    assert alloc.learning_space().tolist() == [2, 4, 4]
+    alloc.begin_set(0, learning=True)
+    alloc.allocate(all_free(), batch([0, 1], [True, True]), np.ones((3, 2)))
+    # two auctions observed; R1's TEM on A stays below 0.6, R0 and R2 are above it
+    assert alloc.refusal_log_ == [(2, 1, 0)]
+    assert alloc.learning_space().tolist() == [2, 2, 4]

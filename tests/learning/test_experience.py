@@ -109,3 +109,11 @@ def test_a_robot_never_refuses_its_last_type():
     assert exp.refusals() == [(1, 0)]  # R0 would be left with nothing: it keeps type 0
     assert exp.willing_[0].tolist() == [True, False]
     assert exp.willing_[1].tolist() == [False, True]
+
+
+def test_refusal_is_strictly_below_delta_u_eq_10():
+    spec = ExperienceSpec(delta_u=0.5, n_min=2, coverage_k=1)
+    exp = ExperienceModel(np.ones((2, 2), dtype=bool), spec)
+    exp.count_[:, 0] = 2
+    exp.v_sum_[:, 0] = [1.0, 0.999]  # TEM exactly delta_u, and just below it
+    assert exp.refusals() == [(1, 0)]

@@ -113,3 +113,29 @@ def test_test_sets_act_greedily_without_drawing():
     ql.push(0, 0)
     assert ql.decide(0) == (0, DO)
     assert rng.calls == 0
+
+
+def test_refusing_a_type_keeps_an_open_decision_that_does_not_involve_it():
+    ql = QLearners(np.array([[True, True, True]]), LearningSpec(history=2, alpha=0.5))
+    ql.reset(np.random.default_rng(0))
+    ql.push(0, 1)
+    ql.push(0, 2)  # history (2, 1), current first
+    s = ql.tables_[0].state()
+    assert s == 2 * 3 + 1
+    ql.open(0, Decision(s, DO), next_state=s)
+    ql.credit(0, 1.0)
+    ql.drop_type(0, 0)
+    # alphabet (1, 2): digits 1 -> 0, 2 -> 1, so (2, 1) is 1 * 2 + 0 = 2
+    assert ql.pending_[0] == Decision(2, DO, reward=1.0)
+    ql.end_set()
+    np.testing.assert_array_equal(ql.tables_[0].q_[:, DO], [0.0, 0.0, 0.5, 0.0])
+
+
+def test_refusing_a_type_drops_an_open_decision_that_involves_it():
+    ql = QLearners(np.array([[True, True, True]]), LearningSpec(history=2))
+    ql.reset(np.random.default_rng(0))
+    ql.push(0, 1)
+    ql.push(0, 2)
+    ql.open(0, Decision(ql.tables_[0].state(), DO), next_state=0)
+    ql.drop_type(0, 1)
+    assert ql.pending_ == [None]

@@ -136,3 +136,18 @@ def test_refusal_is_logged_with_the_auction_count_and_shrinks_the_space():
     # two auctions observed; R1's TEM on A stays below 0.6, R0 and R2 are above it
     assert alloc.refusal_log_ == [(2, 1, 0)]
     assert alloc.learning_space().tolist() == [2, 2, 4]
+    assert alloc.initial_space_.tolist() == [2, 4, 4]  # the space it started from
+
+
+def test_a_new_allocator_explores_as_one_reset_with_seed_0():
+    sc = scenario(shared=True)
+    sc = dataclasses.replace(sc, learning=dataclasses.replace(sc.learning, epsilon_start=1.0))
+    fresh, reset = QLAllocator(sc), QLAllocator(sc)
+    reset.reset(np.random.default_rng(0))
+    rounds = [batch([0, 0, 1, 2], [False] * 4) for _ in range(8)]
+    seen = []
+    for alloc in (fresh, reset):
+        alloc.begin_set(0, learning=True)
+        seen.append([alloc.allocate(all_free(), b, np.ones((3, 4)))[1].tolist() for b in rounds])
+    assert seen[0] == seen[1]
+    assert len({str(bids) for bids in seen[0]}) > 1  # the draws do differ from round to round

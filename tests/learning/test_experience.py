@@ -56,6 +56,7 @@ def test_mu_adds_one_over_number_of_bidders_only_for_bidders():
     exp.observe_auction(0, np.array([0, 2, 3]), 2)
     assert exp.mu_.ravel().tolist() == pytest.approx([1 / 3, 0.0, 1 / 3, 1 / 3])
     assert exp.count_.ravel().tolist() == [1, 0, 1, 1]
+    assert exp.count_.dtype == np.int64 and exp.behaviour_.dtype == np.int8  # counts, codes
 
 
 def test_behaviour_one_starts_at_delta_v_inclusive():
@@ -114,9 +115,9 @@ def test_a_robot_never_refuses_its_last_type():
 
 def test_refusal_is_strictly_below_delta_u_eq_10():
     spec = ExperienceSpec(delta_u=0.5, n_min=2, coverage_k=1)
-    exp = ExperienceModel(np.ones((2, 2), dtype=bool), spec)
+    exp = ExperienceModel(np.ones((3, 2), dtype=bool), spec)
     exp.count_[:, 0] = 2
-    exp.v_sum_[:, 0] = [1.0, 0.999]  # TEM exactly delta_u, and just below it
+    exp.v_sum_[:, 0] = [1.0, 0.999, 2.0]  # TEM exactly delta_u, just below it, and 1
     assert exp.refusals() == [(1, 0)]
 
 

@@ -15,7 +15,8 @@ class Spy:
         self.calls = []
 
     def announce(self, t_s, ids, types, high, sites) -> None:
-        self.calls.append(("announce", t_s, ids.tolist(), types.tolist(), high.tolist()))
+        row = ("announce", t_s, ids.tolist(), types.tolist(), high.tolist(), np.shape(sites))
+        self.calls.append(row)
 
     def allocate(self, t_s, ids, assignment) -> None:
         self.calls.append(("allocate", t_s, ids.tolist(), assignment.tolist()))
@@ -40,10 +41,10 @@ def batch(ids, types) -> Batch:
 
 def test_a_round_prices_applies_advances_and_records(tiny):
     # tiny: R1 {A} cost 1, R2 {A, B} cost 2, 2, R3 {B} cost 1; every task takes 15 s
-    world, spy = make_world(tiny), Spy()
+    world, spy, announced = make_world(tiny), Spy(), batch([10, 11, 12], [0, 1, 1])
     rnd = play_round(
         world,
-        batch([10, 11, 12], [0, 1, 1]),
+        announced,
         make_cost_model("abstract", tiny),
         fixed([0, -1, 2]),
         interval_s=20.0,
@@ -54,12 +55,13 @@ def test_a_round_prices_applies_advances_and_records(tiny):
     assert rnd.won_bid.dtype == float
     np.testing.assert_array_equal(rnd.won_bid, [1.0, np.nan, 1.0])  # the cost, not the bid
     assert rnd.state.time_s == 0.0 and rnd.assignment.tolist() == [0, -1, 2]
+    assert rnd.batch is announced
     assert [(c.task_id, c.robot, c.t_done_s, c.bid) for c in rnd.done] == [
         (10, 0, 15.0, 1.0),
         (12, 2, 15.0, 1.0),
     ]
     assert spy.calls == [
-        ("announce", 0.0, [10, 11, 12], [0, 1, 1], [True, False, False]),
+        ("announce", 0.0, [10, 11, 12], [0, 1, 1], [True, False, False], (3, 2)),
         ("allocate", 0.0, [10, 11, 12], [0, -1, 2]),
         ("done", 10, 15.0),
         ("done", 12, 15.0),

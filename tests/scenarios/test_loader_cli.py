@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from scenarios.cli import main
-from scenarios.loader import ScenarioError, bundled_names, load_scenario
+from scenarios.loader import ScenarioError, bundled_names, bundled_toml, load_scenario
 
 PAPER = load_scenario("paper").source
 
@@ -106,3 +106,18 @@ def test_distance_cost_needs_spatial_scenario(capsys):
 def test_every_bundled_scenario_validates(capsys, name):
     code, out, _ = run_cli(capsys, "validate", name)
     assert code == 0 and ": ok: " in out
+
+
+def test_bundled_files_are_listed_per_folder():
+    assert bundled_names() == ["large", "paper", "paper_spatial", "scale1000", "warehouse"]
+    assert bundled_toml() == bundled_names()
+    assert bundled_toml("sweeps") == [
+        "delta_u",
+        "experience",
+        "history",
+        "refusal_frontier",
+        "refusal_load",
+        "refusal_spatial",
+        "spatial_costs",
+    ]
+    assert bundled_toml("no_such_folder") == []

@@ -2,10 +2,25 @@
 
 from __future__ import annotations
 
+import datetime
+import hashlib
+import tomllib
+from pathlib import Path
+
 import pytest
 
 from scenarios.cli import main
-from scenarios.loader import ScenarioError, bundled_names, bundled_toml, load_scenario
+from scenarios.loader import (
+    ScenarioError,
+    bundled_names,
+    bundled_toml,
+    did_you_mean,
+    load_scenario,
+    locate,
+    parse_scenario,
+    read_toml,
+    resolve,
+)
 
 PAPER = load_scenario("paper").source
 
@@ -121,3 +136,45 @@ def test_bundled_files_are_listed_per_folder():
         "spatial_costs",
     ]
     assert bundled_toml("no_such_folder") == []
+
+
+def test_locate_takes_paths_as_given_and_names_from_the_bundle(tmp_path):
+    assert locate("some/dir/name") == Path("some/dir/name")
+    assert locate("missing.toml") == Path("missing.toml")
+    assert locate(tmp_path) == tmp_path
+    assert locate("paper") == Path(PAPER)
+    assert locate("delta_u", "sweeps") == Path(PAPER).parent / "sweeps" / "delta_u.toml"
+    assert locate("no_such_name") is None
+
+
+def test_unknown_names_list_the_bundle_and_suggest():
+    bundled = "(bundled: large, paper, paper_spatial, scale1000, warehouse)"
+    with pytest.raises(ScenarioError) as info:
+        resolve("nope")
+    assert str(info.value) == f"nope: no such scenario file or bundled scenario {bundled}"
+    with pytest.raises(ScenarioError) as info:
+        resolve("papr")
+    assert "bundled scenario (did you mean 'paper'?) (bundled: " in str(info.value)
+    assert did_you_mean("ALPHA", ["alpha", "gamma"]) == " (did you mean 'alpha'?)"
+    assert did_you_mean("zzz", ["alpha", "gamma"]) == ""
+
+
+def test_unreadable_file_and_the_checksum_of_what_was_read(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        read_toml(tmp_path)
+    assert str(info.value) == f"{tmp_path}: cannot read (Is a directory)"
+    sc = load_scenario(PAPER)
+    assert sc.source == PAPER
+    assert sc.source_sha256 == hashlib.sha256(Path(PAPER).read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize(
+    ("value", "kind"),
+    [([1], "a list"), ({"a": 1}, "a table"), (datetime.date(2024, 1, 2), "date")],
+)
+def test_wrong_types_are_named(value, kind):
+    doc = tomllib.loads(Path(PAPER).read_text())
+    doc["scenario"]["name"] = value
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(doc, source="x.toml")
+    assert str(info.value) == f"x.toml: scenario.name: must be a non-empty string, got {kind}"

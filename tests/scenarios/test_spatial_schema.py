@@ -283,3 +283,35 @@ def test_robots_0_6_m_apart_are_fine_and_the_first_overlap_is_named():
     d["robots"][5]["start"] = [1.5, 10.3]  # R6 on R1
     d["robots"][2]["start"] = [3.4, 10.3]  # R3 on R2
     fails(d, "x.toml: robots[5].start: overlaps robots[0] (R1): centres 0.3 m apart, need >= 0.5 m")
+
+
+def test_the_file_s_numbers_and_drive_are_kept():
+    d = doc()
+    d["spatial"]["drive"]["radius_m"] = 0.3
+    sp = loads(d)
+    assert (sp.width_m, sp.height_m, sp.control_hz, sp.arrive_tol_m) == (20.0, 20.0, 10.0, 0.5)
+    assert (sp.stuck_timeout_s, sp.max_recoveries) == (8.0, 3)
+    assert sp.drive.radius_m == 0.3 and sp.drive.max_speed_mps == 1.5
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"dt_s": 0.05, "control_hz": 20.0},  # the coarsest step, control as fast as physics
+        {"control_hz": 2.0},
+        {"control_hz": 2.5},
+        {"max_recoveries": 1000},
+        {"collision_slop_m": 0.049},
+    ],
+)
+def test_numbers_at_their_limits_are_accepted(changes):
+    d = doc()
+    d["spatial"].update(changes)
+    sp = loads(d)
+    assert all(getattr(sp, k) == v for k, v in changes.items())
+
+
+def test_collision_slop_of_5_cm_is_refused():
+    d = doc()
+    d["spatial"]["collision_slop_m"] = 0.05
+    fails(d, "x.toml: spatial.collision_slop_m: must be below 0.05 m")

@@ -12,6 +12,7 @@ import pytest
 from scenarios.cli import main
 from scenarios.loader import (
     ScenarioError,
+    Validator,
     bundled_names,
     bundled_toml,
     did_you_mean,
@@ -178,3 +179,38 @@ def test_wrong_types_are_named(value, kind):
     with pytest.raises(ScenarioError) as info:
         parse_scenario(doc, source="x.toml")
     assert str(info.value) == f"x.toml: scenario.name: must be a non-empty string, got {kind}"
+
+
+def paper_doc() -> dict:
+    return tomllib.loads(Path(PAPER).read_text())
+
+
+def parse_fails(doc: dict) -> str:
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(doc, source="x.toml")
+    return str(info.value)
+
+
+def test_missing_name_and_times_and_the_top_level():
+    doc = paper_doc()
+    del doc["scenario"]["name"]
+    assert parse_fails(doc) == "x.toml: scenario.name: missing"
+    doc = paper_doc()
+    del doc["scenario"]["exec_time_s"]
+    assert parse_fails(doc) == "x.toml: scenario.exec_time_s: missing"
+    with pytest.raises(ScenarioError) as info:
+        Validator("x.toml").fail("", "empty document")
+    assert str(info.value) == "x.toml: <top level>: empty document"
+
+
+def test_numbers_become_floats_and_booleans_stay_booleans():
+    doc = paper_doc()
+    doc["experience"]["sticky_b1"] = False
+    sc = parse_scenario(doc)
+    assert sc.cost[0][0] == 5.0 and all(type(c) is float for row in sc.cost for c in row)
+    assert all(type(t) is float for t in sc.exec_time_s)
+    assert sc.experience.sticky_b1 is False
+    doc["experience"]["sticky_b1"] = "yes"
+    assert parse_fails(doc) == (
+        "x.toml: experience.sticky_b1: must be true or false, got string 'yes'"
+    )

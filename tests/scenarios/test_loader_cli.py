@@ -214,3 +214,91 @@ def test_numbers_become_floats_and_booleans_stay_booleans():
     assert parse_fails(doc) == (
         "x.toml: experience.sticky_b1: must be true or false, got string 'yes'"
     )
+
+
+@pytest.mark.parametrize(
+    ("table", "changes"),
+    [
+        ("stream", {"p_high": 1.0}),
+        ("stream", {"n_sets": 1, "learn_sets": 1, "test_sets": 1, "rounds_per_set": 1}),
+        ("stream", {"n_sets": 30, "learn_sets": 30, "test_sets": 30}),
+        ("stream", {"n_sets": 1000, "rounds_per_set": 1000, "batch_max": 5}),  # 5,000,000 tasks
+        ("learning", {"alpha": 1.0, "gamma": 0.0, "epsilon_start": 1.0, "epsilon_end": 0.0}),
+        ("learning", {"reward_high": 0.0, "reward_low": 0.5, "penalty_lost_high": 0.0}),
+        ("learning", {"history": 11}),  # R2 has 5 types: 5**11 = 48,828,125 states, under 5e7
+        ("experience", {"delta_v": 0.0, "delta_u": 0.0}),
+        ("experience", {"delta_v": 1.0, "delta_u": 2.0}),
+    ],
+)
+def test_values_at_their_limits_are_accepted(table, changes):
+    doc = paper_doc()
+    doc[table].update(changes)
+    sc = parse_scenario(doc)
+    assert all(getattr(getattr(sc, table), k) == v for k, v in changes.items())
+
+
+@pytest.mark.parametrize(
+    ("table", "key", "value", "line"),
+    [
+        ("learning", "alpha", 1.5, "learning.alpha: must be in (0, 1]"),
+        (
+            "learning",
+            "history",
+            12,
+            "learning.history: a robot's Q-table would have about 10^9 entries",
+        ),
+        (
+            "learning",
+            "history",
+            13,
+            "learning.history: a robot's Q-table would have about 10^9 entries",
+        ),
+        (
+            "experience",
+            "delta_u",
+            2.5,
+            "experience.delta_u: must be in [0, 2] (TEM lies in (0, 2))",
+        ),
+        (
+            "scenario",
+            "description",
+            5,
+            "scenario.description: must be a non-empty string, got number 5",
+        ),
+        ("scenario", "nmae", "x", "scenario.nmae: unknown key (did you mean 'name'?)"),
+    ],
+)
+def test_values_beyond_their_limits_name_the_key(table, key, value, line):
+    doc = paper_doc()
+    doc[table][key] = value
+    assert parse_fails(doc).startswith(f"x.toml: {line}")
+
+
+def test_missing_tables_and_lists_and_the_default_source():
+    doc = paper_doc()
+    doc["strem"] = {}
+    assert parse_fails(doc) == "x.toml: strem: unknown key (did you mean 'stream'?)"
+    doc = paper_doc()
+    del doc["robots"][0]["cost"]
+    assert parse_fails(doc) == "x.toml: robots[0].cost: missing"
+    doc = paper_doc()
+    del doc["scenario"]["task_types"]
+    assert parse_fails(doc) == "x.toml: scenario.task_types: missing"
+    doc = paper_doc()
+    doc["robots"][0]["capabilities"] = 5
+    assert parse_fails(doc) == (
+        "x.toml: robots[0].capabilities: must be a list of strings, got number 5"
+    )
+    sc = parse_scenario(paper_doc())
+    assert (sc.source, sc.source_sha256) == ("<scenario>", "")
+    doc = paper_doc()
+    doc["stream"]["n_sets"] = 0
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(doc)
+    assert str(info.value) == "<scenario>: stream.n_sets: must be at least 1"
+
+
+def test_five_thousand_robots_are_allowed():
+    robots = [{"name": f"R{j}", "capabilities": ["A"], "cost": {"A": 1}} for j in range(5000)]
+    doc = {"scenario": {"name": "many", "task_types": ["A"], "exec_time_s": [1.0]}}
+    assert parse_scenario({**doc, "robots": robots}).n_robots == 5000

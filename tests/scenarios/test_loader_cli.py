@@ -165,7 +165,7 @@ def test_unreadable_file_and_the_checksum_of_what_was_read(tmp_path):
         read_toml(tmp_path)
     assert str(info.value) == f"{tmp_path}: cannot read (Is a directory)"
     sc = load_scenario(PAPER)
-    assert sc.source == PAPER
+    assert (sc.name, sc.source) == ("paper", PAPER)
     assert sc.source_sha256 == hashlib.sha256(Path(PAPER).read_bytes()).hexdigest()
 
 

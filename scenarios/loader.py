@@ -247,11 +247,12 @@ class Validator:
         if not ok:
             self.fail(path, problem)
 
-    def keys(self, table: dict, path: str, allowed: set[str]) -> None:
+    def keys(self, table: dict, path: str, allowed: set[str], problem: str = "unknown key") -> None:
+        """Fail on the first key not in ``allowed``: ``problem`` and a did-you-mean."""
         for key in table:
             if key not in allowed:
                 where = f"{path}.{key}" if path else key
-                self.fail(where, f"unknown key{did_you_mean(key, sorted(allowed))}")
+                self.fail(where, f"{problem}{did_you_mean(key, sorted(allowed))}")
 
     def table(self, doc: dict, key: str, required: bool = False, where: str | None = None) -> dict:
         where = where or key

@@ -34,8 +34,10 @@ _NUMBERS.pop("width_m")
 _NUMBERS.pop("height_m")
 _NUMBERS.pop("drive")
 _KEYS = {"width_m", "height_m", "obstacles", "sites", "drive", *_NUMBERS}
+_POSITIVE = {"dt_s", "control_hz", "arrive_tol_m", "grid_res_m", "stuck_timeout_s"}  # > 0
 MAX_GRID_CELLS = 4_000_000
 MAX_SITES = 10_000
+MAX_RECOVERIES = 1000  # beyond this a stuck robot would retry for hours of simulated time
 
 
 def parse_spatial(v, doc: dict, types: list[str], robots: list[RobotSpec]) -> SpatialSpec:
@@ -57,25 +59,30 @@ def parse_spatial(v, doc: dict, types: list[str], robots: list[RobotSpec]) -> Sp
     for key, default in _NUMBERS.items():
         if key in table:
             values[key] = v.number(
-                table, key, f"spatial.{key}", lo=0.0, integer=isinstance(default, int)
+                table,
+                key,
+                f"spatial.{key}",
+                lo=0.0,
+                lo_open=key in _POSITIVE,
+                integer=isinstance(default, int),
             )
     spec = SpatialSpec(width, height, (), (), **values)
-    v.check(spec.dt_s > 0, "spatial.dt_s", "must be > 0")
     v.check(
         spec.dt_s <= 0.05, "spatial.dt_s", f"{spec.dt_s} s is too coarse for contacts (<= 0.05)"
     )
-    v.check(spec.control_hz > 0, "spatial.control_hz", "must be > 0")
     v.check(
         spec.control_hz * spec.dt_s <= 1.0,
         "spatial.control_hz",
         f"control ({spec.control_hz:g} Hz) cannot run faster than physics (1/dt_s)",
     )
     v.check(spec.control_hz >= 2.0, "spatial.control_hz", "below 2 Hz robots overshoot their goals")
-    v.check(spec.arrive_tol_m > 0, "spatial.arrive_tol_m", "must be > 0")
-    v.check(spec.grid_res_m > 0, "spatial.grid_res_m", "must be > 0")
-    if spec.grid_res_m > 0 and width * height / spec.grid_res_m**2 > MAX_GRID_CELLS:
+    if width * height / spec.grid_res_m**2 > MAX_GRID_CELLS:
         v.fail("spatial.grid_res_m", f"the grid would have more than {MAX_GRID_CELLS:,} cells")
-    v.check(spec.stuck_timeout_s > 0, "spatial.stuck_timeout_s", "must be > 0")
+    v.check(
+        spec.max_recoveries <= MAX_RECOVERIES,
+        "spatial.max_recoveries",
+        f"must be <= {MAX_RECOVERIES}, got {spec.max_recoveries}",
+    )
     v.check(spec.collision_slop_m < 0.05, "spatial.collision_slop_m", "must be below 0.05 m")
     drive = _drive(v, table)
     obstacles = _obstacles(v, table, width, height)
@@ -136,7 +143,8 @@ def _obstacles(v, table: dict, width: float, height: float) -> tuple:
 
 def _sites(v, table: dict, types: list[str]) -> tuple:
     sub = v.table(table, "sites", where="spatial.sites")
-    v.keys(sub, "spatial.sites", set(types))
+    not_a_type = f"unknown key: not one of the scenario's task types ({', '.join(types)})"
+    v.keys(sub, "spatial.sites", set(types), problem=not_a_type)
     out = []
     for name in types:
         where = f"spatial.sites.{name}"

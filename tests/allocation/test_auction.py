@@ -6,7 +6,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from allocation.auction import solve_priority_assignment
+from allocation.auction import MarketAllocator, solve_priority_assignment
+from sim.tasks import Batch
+from sim.world import WorldState
 
 
 def solution_key(assignment, bids, high):
@@ -62,3 +64,18 @@ def test_more_low_tasks_beat_cheaper_bids():
 def test_no_bids_no_assignment():
     bids = np.full((3, 2), np.inf)
     assert solve_priority_assignment(bids, np.array([True, False])).tolist() == [-1, -1]
+
+
+def test_market_robots_learn_nothing_and_bid_their_cost_when_free(tiny):
+    alloc = MarketAllocator(tiny)
+    space = alloc.learning_space()
+    assert space.dtype == np.int64 and space.tolist() == [0, 0, 0]
+    assert alloc.experience_snapshot() is None
+    np.testing.assert_array_equal(alloc.willing(), tiny.capability_matrix())
+    np.testing.assert_array_equal(alloc.allowed(), tiny.capability_matrix())
+    state = WorldState(0.0, np.array([True, False, True]), np.zeros(3))
+    batch = Batch(0, 0, np.arange(2), np.array([0, 1]), np.array([False, True]), np.zeros((2, 2)))
+    costs = np.array([[1.0, np.inf], [0.5, 0.5], [np.inf, 3.0]])
+    assignment, bids = alloc.allocate(state, batch, costs)
+    np.testing.assert_array_equal(bids, [[1.0, np.inf], [np.inf, np.inf], [np.inf, 3.0]])
+    assert assignment.tolist() == [0, 2]  # R2 is busy: its cheaper bids are not placed

@@ -48,6 +48,7 @@ def test_tem_is_the_mean_of_tep_per_auction_bid():
     assert exp.u_[1, 0] == pytest.approx(sum(v1) / 3, rel=1e-15)
     assert exp.eta_.ravel().tolist() == [1.0, 2.0]
     assert exp.mu_.ravel().tolist() == [1.5, 1.5]
+    assert exp.v_.ravel().tolist() == pytest.approx([v0[-1], v1[-1]], rel=1e-15)  # the last v
 
 
 def test_mu_adds_one_over_number_of_bidders_only_for_bidders():
@@ -55,6 +56,7 @@ def test_mu_adds_one_over_number_of_bidders_only_for_bidders():
     exp.observe_auction(0, np.array([0, 2, 3]), 2)
     assert exp.mu_.ravel().tolist() == pytest.approx([1 / 3, 0.0, 1 / 3, 1 / 3])
     assert exp.count_.ravel().tolist() == [1, 0, 1, 1]
+    assert exp.count_.dtype == np.int64 and exp.behaviour_.dtype == np.int8  # counts, codes
 
 
 def test_behaviour_one_starts_at_delta_v_inclusive():
@@ -109,3 +111,36 @@ def test_a_robot_never_refuses_its_last_type():
     assert exp.refusals() == [(1, 0)]  # R0 would be left with nothing: it keeps type 0
     assert exp.willing_[0].tolist() == [True, False]
     assert exp.willing_[1].tolist() == [False, True]
+
+
+def test_refusal_is_strictly_below_delta_u_eq_10():
+    spec = ExperienceSpec(delta_u=0.5, n_min=2, coverage_k=1)
+    exp = ExperienceModel(np.ones((3, 2), dtype=bool), spec)
+    exp.count_[:, 0] = 2
+    exp.v_sum_[:, 0] = [1.0, 0.999, 2.0]  # TEM exactly delta_u, just below it, and 1
+    assert exp.refusals() == [(1, 0)]
+
+
+def test_willing_is_a_boolean_mask_even_from_a_0_1_capability_matrix():
+    exp = ExperienceModel(np.array([[1, 0], [1, 1]]), ExperienceSpec())
+    robots = np.array([10, 11])
+    assert robots[exp.willing_[:, 1]].tolist() == [11]
+    assert robots[exp.willing_[:, 0]].tolist() == [10, 11]
+
+
+def test_without_sticky_b1_a_robot_goes_back_to_regular_and_refusal_stays():
+    """R0 and R1 bid for type 0 (R1 wins), then R0 wins twice and its v comes back near 1."""
+    spec = ExperienceSpec(delta_v=0.2, sticky_b1=False)
+    exp = ExperienceModel(np.ones((3, 1), dtype=bool), spec)
+    exp.behaviour_[2, 0] = B2_REFUSED
+    both = np.array([0, 1, 2])
+    exp.observe_auction(0, both, 1)  # eta - mu: R0 -1/3, R1 +2/3: |v - 1| 0.165, 0.322
+    assert exp.behaviour_[:, 0].tolist() == [B0_REGULAR, B1_EAGER_HESITANT, B2_REFUSED]
+    exp.observe_auction(0, both, 0)  # R0 1 - 2/3 = 1/3, R1 1 - 2/3 = 1/3: |v - 1| 0.165 both
+    assert exp.behaviour_[:, 0].tolist() == [B0_REGULAR, B0_REGULAR, B2_REFUSED]
+    exp.observe_auction(0, both, 1)  # R0 1 - 1 = 0, R1 2 - 1 = 1: |v - 1| 0, 0.462
+    assert exp.behaviour_[:, 0].tolist() == [B0_REGULAR, B1_EAGER_HESITANT, B2_REFUSED]
+    with_sticky = ExperienceModel(np.ones((3, 1), dtype=bool), ExperienceSpec(delta_v=0.2))
+    for winner in (1, 0):
+        with_sticky.observe_auction(0, both, winner)
+    assert with_sticky.behaviour_[1, 0] == B1_EAGER_HESITANT  # sticky: stays in behaviour 1

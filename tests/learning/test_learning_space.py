@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -55,6 +56,14 @@ def test_joint_space_is_the_product_over_robots(paper):
     expected = sum(math.log10(x) for x in per_robot.tolist())
     assert joint_log10(per_robot) == pytest.approx(expected)
     assert 23.0 < joint_log10(per_robot) < 23.2  # about 10^23 for Table 1
+
+
+def test_joint_space_of_small_and_empty_teams():
+    assert joint_log10(np.array([1, 100])) == 2.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no log10(0): a robot without a space says -inf at once
+        assert joint_log10(np.array([0, 0, 0])) == -math.inf
+        assert joint_log10(np.array([512, 0])) == -math.inf
 
 
 def test_history_is_padded_with_the_current_type():

@@ -6,11 +6,16 @@ contain that text (which names the key path and the problem).
 
 from __future__ import annotations
 
+import ast
+import os
+import re
 from pathlib import Path
 
 import pytest
 
+from scenarios import loader, spatial_schema
 from scenarios.cli import main
+from scenarios.loader import ScenarioError
 
 CORPUS = sorted((Path(__file__).parent / "corpus").glob("*.toml"))
 
@@ -35,3 +40,60 @@ def test_malformed_scenario(path, capsys):
     assert "Traceback" not in err
     assert err.startswith(f"mrta: error: {path}: "), err
     assert expected(path) in err, err
+
+
+def pattern(node: ast.expr) -> str:
+    """Regex for the text a message argument can produce: literal parts exact, the rest any."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return re.escape(node.value)
+    if isinstance(node, ast.JoinedStr):
+        return "".join(pattern(part) for part in node.values)
+    return ".*?"
+
+
+def loader_checks() -> list[tuple[str, str]]:
+    """Every validation check of the loader: (where, regex of the line it gives).
+
+    A check is a ``fail`` or ``check`` call on the validator (``v`` or ``self``) in
+    ``scenarios/loader.py`` and ``scenarios/spatial_schema.py``; ``Validator.check`` itself,
+    which only passes its arguments on, is not one.
+    """
+    out = []
+    for module in (loader, spatial_schema):
+        path = Path(module.__file__)
+        for func in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(func, ast.FunctionDef) or func.name == "check":
+                continue
+            for call in ast.walk(func):
+                if not (
+                    isinstance(call, ast.Call)
+                    and isinstance(call.func, ast.Attribute)
+                    and call.func.attr in {"fail", "check"}
+                    and isinstance(call.func.value, ast.Name)
+                    and call.func.value.id in {"v", "self"}
+                ):
+                    continue
+                key, problem = call.args[-2:] if call.func.attr == "check" else call.args[:2]
+                where = f"{path.name}:{call.lineno} ({func.name})"
+                out.append((where, f": {pattern(key)}: {pattern(problem)}"))
+    return out
+
+
+def corpus_lines() -> list[str]:
+    lines = []
+    for path in CORPUS:
+        with pytest.raises(ScenarioError) as info:
+            loader.load_scenario(path)
+        lines.append(str(info.value))
+    return lines
+
+
+@pytest.mark.skipif(
+    "MUTANT_UNDER_TEST" in os.environ, reason="reads the loader's source, which mutmut rewrites"
+)
+def test_every_loader_check_has_a_corpus_file():
+    checks = loader_checks()
+    assert len(checks) >= 60  # the walk finds the checks (a refactor that hides them fails here)
+    lines = corpus_lines()
+    missing = [w for w, rx in checks if not any(re.search(rx, line) for line in lines)]
+    assert not missing, f"loader checks without a file in tests/scenarios/corpus/: {missing}"

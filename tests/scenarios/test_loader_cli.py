@@ -2,10 +2,26 @@
 
 from __future__ import annotations
 
+import datetime
+import hashlib
+import tomllib
+from pathlib import Path
+
 import pytest
 
 from scenarios.cli import main
-from scenarios.loader import ScenarioError, bundled_names, load_scenario
+from scenarios.loader import (
+    ScenarioError,
+    Validator,
+    bundled_names,
+    bundled_toml,
+    did_you_mean,
+    load_scenario,
+    locate,
+    parse_scenario,
+    read_toml,
+    resolve,
+)
 
 PAPER = load_scenario("paper").source
 
@@ -117,3 +133,183 @@ def test_a_folder_named_like_a_bundled_scenario_does_not_shadow_it(tmp_path, mon
     (tmp_path / "paper").mkdir()
     assert load_scenario("paper").name == "paper"
     assert main(["validate", "paper"]) == 0
+
+
+def test_bundled_files_are_listed_per_folder():
+    assert bundled_names() == ["large", "paper", "paper_spatial", "scale1000", "warehouse"]
+    assert bundled_toml() == bundled_names()
+    assert bundled_toml("sweeps") == [
+        "delta_u",
+        "experience",
+        "history",
+        "refusal_frontier",
+        "refusal_load",
+        "refusal_spatial",
+        "spatial_costs",
+    ]
+    assert bundled_toml("no_such_folder") == []
+
+
+def test_locate_takes_paths_as_given_and_names_from_the_bundle(tmp_path):
+    assert locate("some/dir/name") == Path("some/dir/name")
+    assert locate("missing.toml") == Path("missing.toml")
+    assert locate(tmp_path) == tmp_path
+    assert locate("paper") == Path(PAPER)
+    assert locate("delta_u", "sweeps") == Path(PAPER).parent / "sweeps" / "delta_u.toml"
+    assert locate("no_such_name") is None
+
+
+def test_unknown_names_list_the_bundle_and_suggest():
+    bundled = "(bundled: large, paper, paper_spatial, scale1000, warehouse)"
+    with pytest.raises(ScenarioError) as info:
+        resolve("nope")
+    assert str(info.value) == f"nope: no such scenario file or bundled scenario {bundled}"
+    with pytest.raises(ScenarioError) as info:
+        resolve("papr")
+    assert "bundled scenario (did you mean 'paper'?) (bundled: " in str(info.value)
+    assert did_you_mean("ALPHA", ["alpha", "gamma"]) == " (did you mean 'alpha'?)"
+    assert did_you_mean("zzz", ["alpha", "gamma"]) == ""
+
+
+def test_unreadable_file_and_the_checksum_of_what_was_read(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        read_toml(tmp_path)
+    assert str(info.value) == f"{tmp_path}: cannot read (Is a directory)"
+    sc = load_scenario(PAPER)
+    assert (sc.name, sc.source) == ("paper", PAPER)
+    assert sc.source_sha256 == hashlib.sha256(Path(PAPER).read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize(
+    ("value", "kind"),
+    [([1], "a list"), ({"a": 1}, "a table"), (datetime.date(2024, 1, 2), "date")],
+)
+def test_wrong_types_are_named(value, kind):
+    doc = tomllib.loads(Path(PAPER).read_text())
+    doc["scenario"]["name"] = value
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(doc, source="x.toml")
+    assert str(info.value) == f"x.toml: scenario.name: must be a non-empty string, got {kind}"
+
+
+def paper_doc() -> dict:
+    return tomllib.loads(Path(PAPER).read_text())
+
+
+def parse_fails(doc: dict) -> str:
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(doc, source="x.toml")
+    return str(info.value)
+
+
+def test_missing_name_and_times_and_the_top_level():
+    doc = paper_doc()
+    del doc["scenario"]["name"]
+    assert parse_fails(doc) == "x.toml: scenario.name: missing"
+    doc = paper_doc()
+    del doc["scenario"]["exec_time_s"]
+    assert parse_fails(doc) == "x.toml: scenario.exec_time_s: missing"
+    with pytest.raises(ScenarioError) as info:
+        Validator("x.toml").fail("", "empty document")
+    assert str(info.value) == "x.toml: <top level>: empty document"
+
+
+def test_numbers_become_floats_and_booleans_stay_booleans():
+    doc = paper_doc()
+    doc["experience"]["sticky_b1"] = False
+    sc = parse_scenario(doc)
+    assert sc.cost[0][0] == 5.0 and all(type(c) is float for row in sc.cost for c in row)
+    assert all(type(t) is float for t in sc.exec_time_s)
+    assert sc.experience.sticky_b1 is False
+    doc["experience"]["sticky_b1"] = "yes"
+    assert parse_fails(doc) == (
+        "x.toml: experience.sticky_b1: must be true or false, got string 'yes'"
+    )
+
+
+@pytest.mark.parametrize(
+    ("table", "changes"),
+    [
+        ("stream", {"p_high": 1.0}),
+        ("stream", {"n_sets": 1, "learn_sets": 1, "test_sets": 1, "rounds_per_set": 1}),
+        ("stream", {"n_sets": 30, "learn_sets": 30, "test_sets": 30}),
+        ("stream", {"n_sets": 1000, "rounds_per_set": 1000, "batch_max": 5}),  # 5,000,000 tasks
+        ("learning", {"alpha": 1.0, "gamma": 0.0, "epsilon_start": 1.0, "epsilon_end": 0.0}),
+        ("learning", {"reward_high": 0.0, "reward_low": 0.5, "penalty_lost_high": 0.0}),
+        ("learning", {"history": 11}),  # R2 has 5 types: 5**11 = 48,828,125 states, under 5e7
+        ("experience", {"delta_v": 0.0, "delta_u": 0.0}),
+        ("experience", {"delta_v": 1.0, "delta_u": 2.0}),
+    ],
+)
+def test_values_at_their_limits_are_accepted(table, changes):
+    doc = paper_doc()
+    doc[table].update(changes)
+    sc = parse_scenario(doc)
+    assert all(getattr(getattr(sc, table), k) == v for k, v in changes.items())
+
+
+@pytest.mark.parametrize(
+    ("table", "key", "value", "line"),
+    [
+        ("learning", "alpha", 1.5, "learning.alpha: must be in (0, 1]"),
+        (
+            "learning",
+            "history",
+            12,
+            "learning.history: a robot's Q-table would have about 10^9 entries",
+        ),
+        (
+            "learning",
+            "history",
+            13,
+            "learning.history: a robot's Q-table would have about 10^9 entries",
+        ),
+        (
+            "experience",
+            "delta_u",
+            2.5,
+            "experience.delta_u: must be in [0, 2] (TEM lies in (0, 2))",
+        ),
+        (
+            "scenario",
+            "description",
+            5,
+            "scenario.description: must be a non-empty string, got number 5",
+        ),
+        ("scenario", "nmae", "x", "scenario.nmae: unknown key (did you mean 'name'?)"),
+    ],
+)
+def test_values_beyond_their_limits_name_the_key(table, key, value, line):
+    doc = paper_doc()
+    doc[table][key] = value
+    assert parse_fails(doc).startswith(f"x.toml: {line}")
+
+
+def test_missing_tables_and_lists_and_the_default_source():
+    doc = paper_doc()
+    doc["strem"] = {}
+    assert parse_fails(doc) == "x.toml: strem: unknown key (did you mean 'stream'?)"
+    doc = paper_doc()
+    del doc["robots"][0]["cost"]
+    assert parse_fails(doc) == "x.toml: robots[0].cost: missing"
+    doc = paper_doc()
+    del doc["scenario"]["task_types"]
+    assert parse_fails(doc) == "x.toml: scenario.task_types: missing"
+    doc = paper_doc()
+    doc["robots"][0]["capabilities"] = 5
+    assert parse_fails(doc) == (
+        "x.toml: robots[0].capabilities: must be a list of strings, got number 5"
+    )
+    sc = parse_scenario(paper_doc())
+    assert (sc.source, sc.source_sha256) == ("<scenario>", "")
+    doc = paper_doc()
+    doc["stream"]["n_sets"] = 0
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(doc)
+    assert str(info.value) == "<scenario>: stream.n_sets: must be at least 1"
+
+
+def test_five_thousand_robots_are_allowed():
+    robots = [{"name": f"R{j}", "capabilities": ["A"], "cost": {"A": 1}} for j in range(5000)]
+    doc = {"scenario": {"name": "many", "task_types": ["A"], "exec_time_s": [1.0]}}
+    assert parse_scenario({**doc, "robots": robots}).n_robots == 5000

@@ -128,7 +128,7 @@ def test_missing_site_list_for_a_type():
     "key, value, needle",
     [
         ("dt_s", 0.0, "spatial.dt_s: must be > 0"),
-        ("dt_s", -1.0, "spatial.dt_s: must be >= 0"),
+        ("dt_s", -1.0, "spatial.dt_s: must be > 0, got -1.0"),
         ("dt_s", float("nan"), "spatial.dt_s: must be finite"),
         ("width_m", float("inf"), "spatial.width_m: must be finite"),
         ("control_hz", 1000.0, "spatial.control_hz: control (1000 Hz) cannot run faster"),
@@ -162,3 +162,156 @@ def test_clockwise_obstacles_are_accepted():
     x, y = poly.T
     assert set(map(tuple, poly.tolist())) == {(4, 4), (8, 4), (8, 7), (4, 7)}
     assert (x * np.roll(y, -1) - np.roll(x, -1) * y).sum() > 0  # stored counter-clockwise
+
+
+def loads(d: dict):
+    return parse_scenario(d, source="x.toml").spatial
+
+
+@pytest.mark.parametrize("key", ["width_m", "height_m"])
+def test_arena_size_must_be_positive(key):
+    for value in (0.0, -1.0):
+        d = doc()
+        d["spatial"][key] = value
+        fails(d, f"x.toml: spatial.{key}: must be > 0, got {value}")
+    d = doc()
+    d["spatial"][key] = 0.5  # positive, but the first obstacle no longer fits
+    fails(d, "x.toml: spatial.obstacles[0][0]: vertex (4, 4) outside the arena")
+
+
+def test_drive_and_sites_must_be_tables_of_positive_numbers():
+    d = doc()
+    d["spatial"]["drive"] = 5
+    fails(d, "x.toml: spatial.drive: must be a table, got number 5")
+    d = doc()
+    d["spatial"]["sites"] = 5
+    fails(d, "x.toml: spatial.sites: must be a table, got number 5")
+    for value in (0.0, -0.1):
+        d = doc()
+        d["spatial"]["drive"]["radius_m"] = value
+        fails(d, f"x.toml: spatial.drive.radius_m: must be > 0, got {value}")
+
+
+def test_wheels_as_wide_as_the_robot_fit():
+    d = doc()
+    d["spatial"]["drive"]["wheel_base_m"] = 0.5  # = 2 * radius_m
+    assert loads(d).drive.wheel_base_m == 0.5
+
+
+def test_points_name_their_coordinate():
+    d = doc()
+    d["spatial"]["obstacles"][0][0] = ["a", 4.0]
+    fails(d, "x.toml: spatial.obstacles[0][0][0]: must be a number, got string 'a'")
+
+
+def test_obstacles_are_optional_and_may_touch_the_walls():
+    d = doc()
+    del d["spatial"]["obstacles"]
+    assert loads(d).obstacles == ()
+    d = doc()
+    d["spatial"]["obstacles"] = [[[16.0, 0.0], [20.0, 0.0], [20.0, 1.0], [16.0, 1.0]]]
+    assert loads(d).obstacles == (((16.0, 0.0), (20.0, 0.0), (20.0, 1.0), (16.0, 1.0)),)
+
+
+@pytest.mark.parametrize("clockwise", [False, True])
+def test_small_obstacles_are_convex_and_stored_counter_clockwise(clockwise):
+    tri = [[10.0, 8.0], [10.5, 8.0], [10.0, 8.5]]  # edges of 0.5 m: cross products 0.25
+    d = doc()
+    d["spatial"]["obstacles"] = [tri[::-1] if clockwise else tri]
+    x, y = np.array(loads(d).obstacles[0]).T
+    assert (x * np.roll(y, -1) - np.roll(x, -1) * y).sum() > 0
+
+
+def test_collinear_vertices_of_a_clockwise_polygon_are_refused():
+    d = doc()
+    d["spatial"]["obstacles"][0] = [[4.0, 4.0], [4.0, 7.0], [8.0, 7.0], [8.0, 4.0], [6.0, 4.0]]
+    fails(d, "x.toml: spatial.obstacles[0]: must be convex, with no repeated or collinear")
+
+
+def test_ten_thousand_sites_are_allowed():
+    d = doc()
+    d["spatial"]["sites"]["T5"] = [[14.0, 2.0]] * 10_000
+    assert len(loads(d).sites[4]) == 10_000
+
+
+@pytest.mark.parametrize(
+    ("xy", "problem"),
+    [
+        ((0.0, 5.0), "(0, 5) is within 0.35 m of the arena wall: unreachable"),
+        ((20.0, 5.0), "(20, 5) is within 0.35 m of the arena wall: unreachable"),
+        ((10.0, 0.0), "(10, 0) is within 0.35 m of the arena wall: unreachable"),
+        ((10.0, 20.0), "(10, 20) is within 0.35 m of the arena wall: unreachable"),
+        ((19.8, 5.0), "(19.8, 5) is within 0.35 m of the arena wall: unreachable"),
+        ((10.0, 19.8), "(10, 19.8) is within 0.35 m of the arena wall: unreachable"),
+        (
+            (8.0, 5.5),
+            "(8, 5.5) is within 0.35 m (robot radius + clearance) of spatial.obstacles[0]",
+        ),
+    ],
+)
+def test_sites_on_a_wall_or_an_obstacle_edge(xy, problem):
+    d = doc()
+    d["spatial"]["sites"]["T2"][0] = list(xy)
+    fails(d, f"x.toml: spatial.sites.T2[0]: {problem}")
+
+
+def test_a_site_half_a_metre_from_the_wall_is_fine():
+    d = doc()
+    d["spatial"]["sites"]["T2"][0] = [10.0, 0.5]
+    assert loads(d).sites[1][0] == (10.0, 0.5)
+
+
+@pytest.mark.parametrize("start", [[0.25, 10.0], [1.5, 0.25], [19.75, 10.0], [1.5, 19.75]])
+def test_robots_may_start_touching_a_wall(start):
+    d = doc()
+    d["robots"][0]["start"] = start
+    assert parse_scenario(d).robots[0].start_xy == tuple(start)
+
+
+@pytest.mark.parametrize("start", [[19.9, 10.0], [1.5, 19.9]])
+def test_robots_starting_in_the_far_walls(start):
+    d = doc()
+    d["robots"][0]["start"] = start
+    fails(d, "x.toml: robots[0].start:", "puts a robot of radius 0.25 m outside the arena")
+
+
+def test_robots_0_6_m_apart_are_fine_and_the_first_overlap_is_named():
+    d = doc()
+    d["robots"][1]["start"] = [2.1, 10.0]
+    assert parse_scenario(d).robots[1].start_xy == (2.1, 10.0)
+    d = doc()
+    d["robots"][5]["start"] = [1.5, 10.3]  # R6 on R1
+    d["robots"][2]["start"] = [3.4, 10.3]  # R3 on R2
+    fails(d, "x.toml: robots[5].start: overlaps robots[0] (R1): centres 0.3 m apart, need >= 0.5 m")
+
+
+def test_the_file_s_numbers_and_drive_are_kept():
+    d = doc()
+    d["spatial"]["drive"]["radius_m"] = 0.3
+    sp = loads(d)
+    assert (sp.width_m, sp.height_m, sp.control_hz, sp.arrive_tol_m) == (20.0, 20.0, 10.0, 0.5)
+    assert (sp.stuck_timeout_s, sp.max_recoveries) == (8.0, 3)
+    assert sp.drive.radius_m == 0.3 and sp.drive.max_speed_mps == 1.5
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"dt_s": 0.05, "control_hz": 20.0},  # the coarsest step, control as fast as physics
+        {"control_hz": 2.0},
+        {"control_hz": 2.5},
+        {"max_recoveries": 1000},
+        {"collision_slop_m": 0.049},
+    ],
+)
+def test_numbers_at_their_limits_are_accepted(changes):
+    d = doc()
+    d["spatial"].update(changes)
+    sp = loads(d)
+    assert all(getattr(sp, k) == v for k, v in changes.items())
+
+
+def test_collision_slop_of_5_cm_is_refused():
+    d = doc()
+    d["spatial"]["collision_slop_m"] = 0.05
+    fails(d, "x.toml: spatial.collision_slop_m: must be below 0.05 m")

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
 from scipy import stats
 
-from sim.tasks import StreamFileError, generate_stream, load_stream, save_stream
+from sim.scenario import SpatialSpec
+from sim.tasks import StreamFileError, TaskStream, generate_stream, load_stream, save_stream
 
 
 @pytest.fixture(scope="module")
@@ -71,3 +73,103 @@ def test_bad_stream_files_raise_one_line(tmp_path):
         load_stream(bad)
     with pytest.raises(StreamFileError, match="cannot read"):
         load_stream(tmp_path / "missing.csv")
+
+
+HAND = TaskStream(
+    set_index=np.array([0, 0, 1]),
+    round_index=np.array([0, 1, 0]),
+    types=np.array([2, 0, 1]),
+    high=np.array([True, False, True]),
+    sites=np.array([[1.5, 2.0], [np.nan, np.nan], [3.0, 4.25]]),
+    n_sets=2,
+    rounds_per_set=2,
+)
+
+
+def assert_same_stream(a: TaskStream, b: TaskStream) -> None:
+    for col in ("set_index", "round_index", "types", "high", "sites"):
+        np.testing.assert_array_equal(getattr(a, col), getattr(b, col))
+        assert getattr(a, col).dtype.kind == getattr(b, col).dtype.kind, col
+    assert (a.n_sets, a.rounds_per_set) == (b.n_sets, b.rounds_per_set)
+
+
+def test_csv_file_is_exactly_the_documented_columns(tmp_path):
+    path = tmp_path / "s.csv"
+    save_stream(HAND, path)
+    assert path.read_bytes() == (
+        b"# n_sets=2 rounds_per_set=2\n"
+        b"id,set,round,type,high,x,y\r\n"
+        b"0,0,0,2,1,1.5,2.0\r\n"
+        b"1,0,1,0,0,,\r\n"
+        b"2,1,0,1,1,3.0,4.25\r\n"
+    )
+    assert [p.name for p in tmp_path.iterdir()] == ["s.csv"]  # the temporary file is gone
+    assert_same_stream(load_stream(path), HAND)
+
+
+def test_json_file_is_exactly_the_documented_columns(tmp_path):
+    path = tmp_path / "s.json"
+    save_stream(HAND, path)
+    assert json.loads(path.read_text()) == {
+        "n_sets": 2,
+        "rounds_per_set": 2,
+        "columns": {
+            "id": [0, 1, 2],
+            "set": [0, 0, 1],
+            "round": [0, 1, 0],
+            "type": [2, 0, 1],
+            "high": [1, 0, 1],
+            "x": [1.5, None, 3.0],
+            "y": [2.0, None, 4.25],
+        },
+    }
+    assert [p.name for p in tmp_path.iterdir()] == ["s.json"]
+    assert_same_stream(load_stream(path), HAND)
+
+
+def test_rows_are_put_in_set_and_round_order_on_load(tmp_path):
+    path = tmp_path / "s.csv"
+    path.write_text(
+        "# n_sets=2 rounds_per_set=2\nid,set,round,type,high,x,y\n"
+        "0,1,0,1,1,3.0,4.25\n1,0,1,0,0,,\n2,0,0,2,1,1.5,2.0\n"
+    )
+    assert_same_stream(load_stream(path), HAND)
+
+
+@pytest.mark.parametrize(
+    ("column", "value", "message"),
+    [
+        ("set", 2, "column 'set' outside 0..1"),
+        ("set", -1, "column 'set' outside 0..1"),
+        ("round", 2, "column 'round' outside 0..1"),
+        ("round", -1, "column 'round' outside 0..1"),
+    ],
+)
+def test_set_and_round_out_of_range_are_refused(tmp_path, column, value, message):
+    path = tmp_path / "s.json"
+    save_stream(HAND, path)
+    doc = json.loads(path.read_text())
+    doc["columns"][column][1] = value
+    path.write_text(json.dumps(doc))
+    with pytest.raises(StreamFileError) as info:
+        load_stream(path)
+    assert str(info.value) == f"{path}: {message}"
+
+
+def test_spatial_tasks_sit_on_their_types_sites(paper):
+    two = ((1.0, 1.0), (2.0, 2.0))
+    sites = tuple(tuple((x + 10 * i, y) for x, y in two) for i in range(paper.n_types))
+    spatial = SpatialSpec(100.0, 100.0, (), sites)
+    stream = generate_stream(dataclasses.replace(paper, spatial=spatial), np.random.default_rng(3))
+    for i in range(paper.n_types):
+        xs = stream.sites[stream.types == i]
+        # every task of type i at one of its two sites, and both sites used
+        assert {tuple(p) for p in xs.tolist()} == {(1.0 + 10 * i, 1.0), (2.0 + 10 * i, 2.0)}
+
+
+def test_malformed_stream_file_names_the_error(tmp_path):
+    path = tmp_path / "s.json"
+    path.write_text('{"n_sets": 2, "rounds_per_set": 2, "columns": {"id": [0]}}')
+    with pytest.raises(StreamFileError) as info:
+        load_stream(path)
+    assert str(info.value) == f"{path}: malformed stream file (KeyError: 'set')"

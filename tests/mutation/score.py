@@ -1,0 +1,77 @@
+"""Mutation score per module from mutmut's results (README, "Testing").
+
+Run after ``mutmut run`` from the project root::
+
+    python tests/mutation/score.py            # table of every mutated module
+    python tests/mutation/score.py --survivors  # ... and the names of the survivors
+
+Score = killed / (killed + survived), where mutants listed in ``equivalent.toml`` beside this
+file (a mutant that no test can tell from the original, each with its one-line reason) are
+counted apart and left out. Timeouts are counted apart too (a mutant that makes the code hang
+is caught, but not by an assertion); mutants not run yet are shown as "not run".
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tomllib
+from collections import Counter
+from pathlib import Path
+
+KILLED, SURVIVED = {1, 3}, {0}
+TIMEOUT = {24, -24, 36, 152, 255}
+HERE = Path(__file__).parent
+
+
+def equivalent() -> dict[str, str]:
+    """Mutant name -> why it cannot be killed."""
+    with open(HERE / "equivalent.toml", "rb") as f:
+        return tomllib.load(f)["equivalent"]
+
+
+def results(root: Path = Path("mutants")) -> dict[str, dict[str, int | None]]:
+    """Module path -> {mutant name: exit code (None = not run)}."""
+    out = {}
+    for meta in sorted(root.rglob("*.py.meta")):
+        codes = json.loads(meta.read_text())["exit_code_by_key"]
+        out[str(meta.relative_to(root)).removesuffix(".meta")] = codes
+    return out
+
+
+def tally(codes: dict[str, int | None], equiv: dict[str, str]) -> Counter:
+    c = Counter()
+    for name, code in codes.items():
+        if name in equiv:
+            c["equivalent"] += 1
+        elif code in KILLED:
+            c["killed"] += 1
+        elif code in SURVIVED:
+            c["survived"] += 1
+        elif code in TIMEOUT:
+            c["timeout"] += 1
+        elif code is None:
+            c["not run"] += 1
+        else:
+            c["other"] += 1
+    return c
+
+
+def main(argv: list[str]) -> int:
+    equiv = equivalent()
+    cols = ("killed", "survived", "equivalent", "timeout", "not run", "other")
+    print(f"{'module':30s} " + " ".join(f"{c:>10s}" for c in cols) + "      score")
+    for module, codes in results().items():
+        c = tally(codes, equiv)
+        decided = c["killed"] + c["survived"]
+        score = f"{100 * c['killed'] / decided:6.1f}%" if decided else "     -"
+        print(f"{module:30s} " + " ".join(f"{c[k]:10d}" for k in cols) + f"    {score}")
+        if "--survivors" in argv:
+            for name, code in codes.items():
+                if code in SURVIVED and name not in equiv:
+                    print(f"    survived: {name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -23,50 +23,13 @@ import time
 import numpy as np
 
 import sim.contacts
+from sim.bench_arena import bench_scenario
 from sim.physics import PymunkWorld
 from sim.recording import TrajectoryRecorder
-from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
 from sim.tasks import Batch
 
 DEFAULT_SIM_S = {10: 600.0, 100: 120.0, 1000: 30.0}  # a second or two of wall time each
 ROUND_S = 10.0  # with an allocator: a round of announcements and an auction this often
-
-
-def bench_scenario(
-    n: int, rng: np.random.Generator, dt_s: float = 1.0 / 60.0, control_hz: float = 10.0
-) -> Scenario:
-    """A square arena for ``n`` robots on a start grid, with box obstacles and task sites."""
-    side = max(20.0, float(np.ceil(np.sqrt(13.0 * n))))
-    cols = int(np.ceil(np.sqrt(n)))
-    pitch = side / (cols + 1)
-    starts = [((k % cols + 1) * pitch, (k // cols + 1) * pitch) for k in range(n)]
-    obstacles = []
-    for k in range(max(1, n // 10)):
-        cx, cy = (k % cols + 1.5) * pitch, (k // cols + 1.5) * pitch
-        if cx < side - pitch and cy < side - pitch:
-            h = 0.25 * pitch
-            obstacles.append(
-                ((cx - h, cy - h), (cx + h, cy - h), (cx + h, cy + h), (cx - h, cy + h))
-            )
-    spatial = SpatialSpec(
-        side, side, tuple(obstacles), ((),), DriveSpec(), dt_s=dt_s, control_hz=control_hz
-    )
-    from sim.planning import GridPlanner
-
-    planner = GridPlanner(spatial)
-    cand = rng.uniform(1.0, side - 1.0, size=(4 * max(20, n // 2), 2))
-    sites = cand[planner.free(cand)][: max(20, n // 2)]
-    spatial = SpatialSpec(
-        side,
-        side,
-        tuple(obstacles),
-        (tuple(map(tuple, sites.tolist())),),
-        DriveSpec(),
-        dt_s=dt_s,
-        control_hz=control_hz,
-    )
-    robots = tuple(RobotSpec(f"R{k + 1}", (0,), starts[k]) for k in range(n))
-    return Scenario(f"bench{n}", ("T",), robots, ((1.0,),) * n, (2.0,), spatial=spatial)
 
 
 def _run(

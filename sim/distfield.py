@@ -91,23 +91,26 @@ class DistanceField:
         self.grid_, self.levels_ = grid, levels = _grid(
             pl.spatial.width_m, pl.spatial.height_m, n_sites
         )
+        obstacles = planner_obstacles(pl)
+        points = np.concatenate([verts, goals])
+        self.sight_ = SightIndex(points, obstacles)
+        hidden = self._hidden(goals)
         dist = np.full((n_sites, nv), np.inf)
         nxt = np.zeros((n_sites, nv), dtype=complex)
         for s, goal in enumerate(goals):
-            d, last = pl.goal_field(goal)
+            d, last = pl.goal_field(goal, hidden[s])
             dist[s] = d
             nxt[s] = _next_points(pl, d, last, complex(*goal))
         zv = verts @ np.array([1.0, 1j])
         zg = goals @ np.array([1.0, 1j])
         self.anchor_z_ = np.concatenate([np.broadcast_to(zv, (n_sites, nv)), zg[:, None]], axis=1)
         self.anchor_f_ = np.concatenate([dist, np.zeros((n_sites, 1))], axis=1)
-        obstacles = _obstacles(pl)
+        t1 = time.perf_counter()
         meets, inside = polygon_cells(obstacles, grid)
         care = ~inside.ravel() & _in_box(grid, pl.lo_, pl.hi_)
+        self.care_ = care
         self.clear_ = care & ~meets.ravel() & _within_box(grid, pl.lo_, pl.hi_)
-        points = np.concatenate([verts, goals])
         ras = visibility(points, obstacles, grid).reshape(nv + n_sites, -1)
-        self.sight_ = SightIndex(points, obstacles)
         ras[:, ~care] = DONT_CARE
         pyramid = [ras]
         for _ in range(levels):
@@ -117,7 +120,7 @@ class DistanceField:
                 r[:, :, 0, :, 0] | r[:, :, 0, :, 1] | r[:, :, 1, :, 0] | r[:, :, 1, :, 1]
             )
             pyramid[-1] = pyramid[-1].reshape(len(ras), -1)
-        self.raster_s_ = time.perf_counter() - t0
+        t2 = time.perf_counter()
         wedge = _wedge_geometry(pl)
         table = np.empty((grid.nx * grid.ny, n_sites), dtype=np.int16)
         mixed = []
@@ -129,7 +132,20 @@ class DistanceField:
             mixed.append(extra)
         self.table_ = table
         self._index_mixed(mixed)
-        self.build_s_ = time.perf_counter() - t0
+        t3 = time.perf_counter()
+        self.timings_ = {"fields_s": t1 - t0, "raster_s": t2 - t1, "refine_s": t3 - t2}
+        self.build_s_ = t3 - t0
+
+    def _hidden(self, goals: np.ndarray) -> np.ndarray:
+        """(S, V) ``GridPlanner.blocked`` from each goal to each vertex, testing only the
+        obstacles in the segment's direction (``SightIndex``)."""
+        nv, n_goals = self.n_vertices_, len(goals)
+        verts = self.planner.vertices_
+        goal = np.repeat(np.arange(n_goals), nv)
+        vertex = np.tile(np.arange(nv), n_goals)
+        seg, obstacle = self.sight_.candidates(nv + goal, verts[vertex])
+        cut = self.planner.blocked_by(goals[goal[seg]], verts[vertex[seg]], obstacle)
+        return (np.bincount(seg[cut], minlength=n_goals * nv) > 0).reshape(n_goals, nv)
 
     def _refine(self, s0: int, s1: int, pyramid, normals, kind, zv):
         """Anchor codes (s1 - s0, cells) of sites s0..s1 and their undecided cells' candidates."""
@@ -137,13 +153,11 @@ class DistanceField:
         n_s = s1 - s0
         codes = np.full((n_s, grid.ny, grid.nx), INF_CODE, dtype=np.int16)
         nbx, nby = grid.nx >> top, grid.ny >> top
-        site, block, anchor = [], [], []
-        for s in range(n_s):
-            cand = np.append(np.flatnonzero(kind[s] > 0), nv)
-            site.append(np.full(nby * nbx * len(cand), s))
-            block.append(np.repeat(np.arange(nby * nbx), len(cand)))
-            anchor.append(np.tile(cand, nby * nbx))
-        site, block, anchor = np.concatenate(site), np.concatenate(block), np.concatenate(anchor)
+        seen = pyramid[top] & 2 > 0  # (points, top blocks): seen from some point of the block
+        start = np.empty((n_s, nby * nbx, nv + 1), dtype=bool)
+        start[:, :, :nv] = seen[:nv].T[None] & (kind[:, None, :] > 0)
+        start[:, :, nv] = seen[nv + s0 : nv + s1]
+        site, block, anchor = np.nonzero(start)
         az_all, af_all = self.anchor_z_[s0:s1], self.anchor_f_[s0:s1]
         for level in range(top, -1, -1):
             bx_n = grid.nx >> level
@@ -264,6 +278,7 @@ class DistanceField:
             self.anchor_f_,
             self.goal_extra_,
             self.clear_,
+            self.care_,
             self.mixed_key_,
             self.mixed_start_,
             self.mixed_anchor_,
@@ -283,8 +298,9 @@ class DistanceField:
         to the field (:meth:`columns`), as ``GridPlanner.distances`` computes it."""
         pl = self.planner
         pos = np.asarray(positions, dtype=float).reshape(-1, 2)
-        cell = self.grid_.cells(pos)
-        check = np.flatnonzero(~self.clear_[cell])
+        grid = self.grid_
+        cell = grid.cells(pos)
+        check = np.flatnonzero(~self.clear_[cell] | ~grid.holds(pos))
         snapped, extra = pos, None
         if check.size:
             bad = check[~pl.free(pos[check])]
@@ -292,7 +308,12 @@ class DistanceField:
                 snapped = pos.copy()
                 snapped[bad] = pl.snap(pos[bad])
                 extra = np.linalg.norm(pos - snapped, axis=1)
-                cell = self.grid_.cells(snapped)
+                cell = grid.cells(snapped)
+                odd = bad[~self.care_[cell[bad]] | ~grid.holds(snapped[bad])]
+                if odd.size:  # pushed out of the arena, or deep into an obstacle: no table
+                    out = self.distances(np.delete(pos, odd, axis=0), cols)
+                    exact = pl.exact_distances(pos[odd], self.sites[cols])
+                    return np.insert(out, odd - np.arange(len(odd)), exact, axis=0)
         z = snapped @ np.array([1.0, 1j])
         codes = self.table_[cell][:, cols]
         flat = (cols * (self.n_vertices_ + 1))[None, :] + np.maximum(codes, 0)
@@ -385,7 +406,7 @@ def _within_box(grid: Grid, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return (cy[:, None] & cx[None, :]).ravel()
 
 
-def _obstacles(planner) -> Obstacles:
+def planner_obstacles(planner) -> Obstacles:
     """The planner's inflated polygons as the raster wants them (shrunk as its segment test)."""
     polys = planner.polygons_
     k, e = planner.offsets_.shape if len(polys) else (0, 1)

@@ -279,15 +279,18 @@ class GridPlanner:
                 pts[k] = p
         return pts
 
-    def goal_field(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def goal_field(self, goal: np.ndarray, hidden=None) -> tuple[np.ndarray, np.ndarray]:
         """Geodesic distance (V,) from each vertex to ``goal`` and the last vertex before the goal
-        on that path (-1 if unreachable); cached per goal point."""
+        on that path (-1 if unreachable); cached per goal point. ``hidden``: (V,) the result of
+        :meth:`blocked` from the goal to each vertex, if the caller has it already."""
         key = (float(goal[0]), float(goal[1]))
         hit = self._fields.get(key)
         if hit is not None:
             return hit
         v = self.vertices_
-        seen = np.flatnonzero(~self.blocked(np.broadcast_to(goal, v.shape), v))
+        if hidden is None:
+            hidden = self.blocked(np.broadcast_to(goal, v.shape), v)
+        seen = np.flatnonzero(~hidden)
         if seen.size:
             total = self.apsp_[:, seen] + np.linalg.norm(v[seen] - goal, axis=1)[None]
             k = np.argmin(total, axis=1)

@@ -37,6 +37,15 @@ class Grid:
     nx: int
     ny: int
 
+    def holds(self, xy: np.ndarray) -> np.ndarray:
+        """(n,) True where a point (n, 2) lies on the grid (borders included)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return (
+            (xy >= 0).all(axis=1)
+            & (xy[:, 0] <= self.nx * self.dx_m)
+            & (xy[:, 1] <= self.ny * self.dy_m)
+        )
+
     def cells(self, xy: np.ndarray) -> np.ndarray:
         """(n,) flat index (row * nx + column) of the cell holding each point (n, 2)."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)

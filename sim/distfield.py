@@ -53,7 +53,6 @@ SITES_PER_PASS = 32  # sites refined together (bounds the candidate arrays)
 WEDGE_SLACK_RAD = 1e-4  # taut wedges are widened by this angle, and by MARGIN_M
 MARGIN_M = 1e-6
 DOMINANCE_TOL_M = 1e-7
-INF_CODE, MIXED_CODE = -1, -2  # table codes besides anchors 0..V (V = the site itself)
 
 
 class DistanceField:
@@ -86,8 +85,8 @@ class DistanceField:
         verts = pl.vertices_
         nv = len(verts)
         self.n_vertices_ = nv
-        if nv + 1 > np.iinfo(np.int16).max:
-            raise ValueError(f"{nv} obstacle vertices: the anchor table holds at most 32766")
+        if nv + 3 > np.iinfo(np.int16).max:
+            raise ValueError(f"{nv} obstacle vertices: the anchor table holds at most 32764")
         self.grid_, self.levels_ = grid, levels = _grid(
             pl.spatial.width_m, pl.spatial.height_m, n_sites
         )
@@ -103,8 +102,14 @@ class DistanceField:
             nxt[s] = _next_points(pl, d, last, complex(*goal))
         zv = verts @ np.array([1.0, 1j])
         zg = goals @ np.array([1.0, 1j])
-        self.anchor_z_ = np.concatenate([np.broadcast_to(zv, (n_sites, nv)), zg[:, None]], axis=1)
-        self.anchor_f_ = np.concatenate([dist, np.zeros((n_sites, 1))], axis=1)
+        # anchors 0..V-1 the vertices, V the site, V + 1 "no path", V + 2 "several candidates"
+        self.inf_code_, self.mixed_code_ = nv + 1, nv + 2
+        nothing = np.zeros((n_sites, 2))
+        self.anchor_z_ = np.concatenate(
+            [np.broadcast_to(zv, (n_sites, nv)), zg[:, None], nothing], axis=1
+        )
+        inf_nan = np.broadcast_to([np.inf, np.nan], (n_sites, 2))
+        self.anchor_f_ = np.concatenate([dist, np.zeros((n_sites, 1)), inf_nan], axis=1)
         t1 = time.perf_counter()
         meets, inside = polygon_cells(obstacles, grid)
         care = ~inside.ravel() & _in_box(grid, pl.lo_, pl.hi_)
@@ -151,7 +156,7 @@ class DistanceField:
         """Anchor codes (s1 - s0, cells) of sites s0..s1 and their undecided cells' candidates."""
         grid, nv, top = self.grid_, self.n_vertices_, self.levels_
         n_s = s1 - s0
-        codes = np.full((n_s, grid.ny, grid.nx), INF_CODE, dtype=np.int16)
+        codes = np.full((n_s, grid.ny, grid.nx), self.inf_code_, dtype=np.int16)
         nbx, nby = grid.nx >> top, grid.ny >> top
         seen = pyramid[top] & 2 > 0  # (points, top blocks): seen from some point of the block
         start = np.empty((n_s, nby * nbx, nv + 1), dtype=bool)
@@ -228,7 +233,7 @@ class DistanceField:
             _write(codes, level, site[first], bx[first], by[first], anchor[first])
             if level == 0:
                 rest = ~np.repeat(one, sizes)
-                _write(codes, 0, site[rest], bx[rest], by[rest], MIXED_CODE)
+                _write(codes, 0, site[rest], bx[rest], by[rest], self.mixed_code_)
                 cells = block[rest]
                 extra = (site[rest] + s0, cells, anchor[rest], vis[rest] == FULL)
                 return codes.reshape(n_s, -1), extra
@@ -253,6 +258,8 @@ class DistanceField:
     def _index_mixed(self, mixed) -> None:
         """Sort the undecided (cell, site) pairs' candidates into a searchable index."""
         n_sites = len(self.sites)
+        if self.grid_.nx * self.grid_.ny * n_sites >= 2**31:
+            raise ValueError("too many cells x sites for the index of undecided pairs")
         site = np.concatenate([m[0] for m in mixed])
         cell = np.concatenate([m[1] for m in mixed])
         anchor = np.concatenate([m[2] for m in mixed])
@@ -261,7 +268,7 @@ class DistanceField:
         order = np.argsort(key, kind="stable")
         key, anchor, full = key[order], anchor[order], full[order]
         starts = _starts(key)
-        self.mixed_key_ = key[starts]
+        self.mixed_key_ = key[starts].astype(np.int32)
         self.mixed_start_ = np.append(starts, len(key)).astype(np.int64)
         self.mixed_anchor_ = anchor.astype(np.int16)
         self.mixed_full_ = full
@@ -316,11 +323,10 @@ class DistanceField:
                     return np.insert(out, odd - np.arange(len(odd)), exact, axis=0)
         z = snapped @ np.array([1.0, 1j])
         codes = self.table_[cell][:, cols]
-        flat = (cols * (self.n_vertices_ + 1))[None, :] + np.maximum(codes, 0)
+        flat = (cols * self.anchor_f_.shape[1])[None, :] + codes
         out = np.abs(z[:, None] - self.anchor_z_.ravel()[flat])
-        out += self.anchor_f_.ravel()[flat]
-        out[codes == INF_CODE] = np.inf
-        r, c = np.nonzero(codes == MIXED_CODE)
+        out += self.anchor_f_.ravel()[flat]  # inf where no path, NaN where several candidates
+        r, c = np.nonzero(codes == self.mixed_code_)
         if r.size:
             out[r, c] = self._mixed(snapped, z, r, cell[r], cols[c])
         if extra is not None:
@@ -334,16 +340,20 @@ class DistanceField:
         """Distances of the (robot, site) pairs whose cell keeps several candidates: the
         cheapest candidate the robot sees (one exact test per robot and candidate point)."""
         nv, n_pts = self.n_vertices_, self.n_vertices_ + len(self.sites)
-        row = np.searchsorted(self.mixed_key_, cell * len(self.sites) + cols)
+        row = np.searchsorted(self.mixed_key_, (cell * len(self.sites) + cols).astype(np.int32))
         lo, hi = self.mixed_start_[row], self.mixed_start_[row + 1]
         sizes = hi - lo
         entry = np.repeat(lo - np.cumsum(sizes) + sizes, sizes) + np.arange(sizes.sum())
         pair = np.repeat(np.arange(len(row)), sizes)
         anchor = self.mixed_anchor_[entry].astype(np.int64)
         s = cols[pair]
-        az = self.anchor_z_[s, anchor]
-        value = np.abs(z[robot[pair]] - az) + self.anchor_f_[s, anchor]
-        test = np.flatnonzero(~self.mixed_full_[entry])
+        at = s * self.anchor_f_.shape[1] + anchor
+        az = self.anchor_z_.ravel()[at]
+        value = np.abs(z[robot[pair]] - az) + self.anchor_f_.ravel()[at]
+        starts = np.cumsum(sizes) - sizes
+        full = self.mixed_full_[entry]
+        sure = np.minimum.reduceat(np.where(full, value, np.inf), starts)
+        test = np.flatnonzero(~full & (value < sure[pair]))  # could beat the best one seen whole
         if test.size:
             point = np.where(anchor[test] == nv, nv + s[test], anchor[test])
             key, first, inv = np.unique(
@@ -355,7 +365,6 @@ class DistanceField:
             cut = self.planner.blocked_by(a[seg], np.column_stack([b.real, b.imag])[seg], obstacle)
             blocked = np.bincount(seg[cut], minlength=len(key)) > 0
             value[test[blocked[inv]]] = np.inf
-        starts = np.cumsum(np.append(0, sizes[:-1]))
         return np.minimum.reduceat(value, starts)
 
 

@@ -350,10 +350,13 @@ class GridPlanner:
         field = self.field()
         cols = field.columns(sites)
         known = cols >= 0
+        uniq, inv = np.unique(cols[known], return_inverse=True)  # a batch may repeat sites
         if known.all():
-            return field.distances(pos, cols)
+            if len(uniq) == len(cols):
+                return field.distances(pos, cols)
+            return field.distances(pos, uniq)[:, inv]
         out = np.empty((len(pos), len(sites)))
-        out[:, known] = field.distances(pos, cols[known])
+        out[:, known] = field.distances(pos, uniq)[:, inv]
         out[:, ~known] = self.exact_distances(pos, sites[~known])
         return out
 

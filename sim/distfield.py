@@ -49,7 +49,7 @@ from sim.raster import (
 CELL_M = 0.5  # finest cells, about; the arena is split evenly
 TOP_M = 16.0  # coarsest blocks, about: every anchor is tried there
 TABLE_BYTES = 128 * 2**20  # cells grow past CELL_M to keep the anchor table below this
-SITES_PER_PASS = 32  # sites refined together (bounds the candidate arrays)
+SITES_PER_PASS = 4  # sites refined together (bounds the candidate arrays)
 WEDGE_SLACK_RAD = 1e-4  # taut wedges are widened by this angle, and by MARGIN_M
 MARGIN_M = 1e-6
 DOMINANCE_TOL_M = 1e-7
@@ -90,6 +90,8 @@ class DistanceField:
         self.grid_, self.levels_ = grid, levels = _grid(
             pl.spatial.width_m, pl.spatial.height_m, n_sites
         )
+        if grid.nx * grid.ny * n_sites >= 2**31:
+            raise ValueError("too many cells x sites for the index of undecided pairs")
         obstacles = planner_obstacles(pl)
         points = np.concatenate([verts, goals])
         self.sight_ = SightIndex(points, obstacles)
@@ -136,6 +138,7 @@ class DistanceField:
             table[:, s0:s1] = codes.T
             mixed.append(extra)
         self.table_ = table
+        del ras, pyramid  # the visibility rasters are not kept
         self._index_mixed(mixed)
         t3 = time.perf_counter()
         self.timings_ = {"fields_s": t1 - t0, "raster_s": t2 - t1, "refine_s": t3 - t2}
@@ -146,11 +149,15 @@ class DistanceField:
         obstacles in the segment's direction (``SightIndex``)."""
         nv, n_goals = self.n_vertices_, len(goals)
         verts = self.planner.vertices_
-        goal = np.repeat(np.arange(n_goals), nv)
-        vertex = np.tile(np.arange(nv), n_goals)
-        seg, obstacle = self.sight_.candidates(nv + goal, verts[vertex])
-        cut = self.planner.blocked_by(goals[goal[seg]], verts[vertex[seg]], obstacle)
-        return (np.bincount(seg[cut], minlength=n_goals * nv) > 0).reshape(n_goals, nv)
+        out = np.zeros((n_goals, nv), dtype=bool)
+        for g0 in range(0, n_goals if nv else 0, SITES_PER_PASS):
+            goal = np.repeat(np.arange(g0, min(n_goals, g0 + SITES_PER_PASS)), nv)
+            vertex = np.tile(np.arange(nv), len(goal) // max(1, nv))
+            seg, obstacle = self.sight_.candidates(nv + goal, verts[vertex])
+            cut = self.planner.blocked_by(goals[goal[seg]], verts[vertex[seg]], obstacle)
+            hit = np.bincount(seg[cut], minlength=len(goal)) > 0
+            out[g0 : g0 + SITES_PER_PASS] = hit.reshape(-1, nv)
+        return out
 
     def _refine(self, s0: int, s1: int, pyramid, normals, kind, zv):
         """Anchor codes (s1 - s0, cells) of sites s0..s1 and their undecided cells' candidates."""
@@ -162,7 +169,7 @@ class DistanceField:
         start = np.empty((n_s, nby * nbx, nv + 1), dtype=bool)
         start[:, :, :nv] = seen[:nv].T[None] & (kind[:, None, :] > 0)
         start[:, :, nv] = seen[nv + s0 : nv + s1]
-        site, block, anchor = np.nonzero(start)
+        site, block, anchor = (a.astype(np.int32) for a in np.nonzero(start))
         az_all, af_all = self.anchor_z_[s0:s1], self.anchor_f_[s0:s1]
         for level in range(top, -1, -1):
             bx_n = grid.nx >> level
@@ -234,8 +241,8 @@ class DistanceField:
             if level == 0:
                 rest = ~np.repeat(one, sizes)
                 _write(codes, 0, site[rest], bx[rest], by[rest], self.mixed_code_)
-                cells = block[rest]
-                extra = (site[rest] + s0, cells, anchor[rest], vis[rest] == FULL)
+                key = block[rest].astype(np.int32) * len(self.sites) + (site[rest] + s0)
+                extra = (key.astype(np.int32), anchor[rest].astype(np.int16), vis[rest] == FULL)
                 return codes.reshape(n_s, -1), extra
             rest = ~np.repeat(one, sizes)
             site, anchor, bx, by = site[rest], anchor[rest], bx[rest], by[rest]
@@ -246,7 +253,7 @@ class DistanceField:
             base = 4 * np.repeat(new_start, sizes) + rank
             n_sz = np.repeat(sizes, sizes)
             order = np.empty(4 * len(site), dtype=np.int64)
-            child_block = np.empty(4 * len(site), dtype=np.int64)
+            child_block = np.empty(4 * len(site), dtype=np.int32)
             nx_child = 2 * bx_n
             for c, (i, j) in enumerate(((0, 0), (1, 0), (0, 1), (1, 1))):
                 pos = base + c * n_sz
@@ -257,20 +264,17 @@ class DistanceField:
 
     def _index_mixed(self, mixed) -> None:
         """Sort the undecided (cell, site) pairs' candidates into a searchable index."""
-        n_sites = len(self.sites)
-        if self.grid_.nx * self.grid_.ny * n_sites >= 2**31:
-            raise ValueError("too many cells x sites for the index of undecided pairs")
-        site = np.concatenate([m[0] for m in mixed])
-        cell = np.concatenate([m[1] for m in mixed])
-        anchor = np.concatenate([m[2] for m in mixed])
-        full = np.concatenate([m[3] for m in mixed])
-        key = cell.astype(np.int64) * n_sites + site
+        key = np.concatenate([m[0] for m in mixed])
+        anchor = np.concatenate([m[1] for m in mixed])
+        full = np.concatenate([m[2] for m in mixed])
+        mixed.clear()
         order = np.argsort(key, kind="stable")
         key, anchor, full = key[order], anchor[order], full[order]
+        del order
         starts = _starts(key)
-        self.mixed_key_ = key[starts].astype(np.int32)
-        self.mixed_start_ = np.append(starts, len(key)).astype(np.int64)
-        self.mixed_anchor_ = anchor.astype(np.int16)
+        self.mixed_key_ = key[starts]
+        self.mixed_start_ = np.append(starts, len(key)).astype(np.int32)
+        self.mixed_anchor_ = anchor
         self.mixed_full_ = full
 
     @property

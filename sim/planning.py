@@ -370,11 +370,20 @@ class GridPlanner:
         built on first use, shared with every planner of this process that has the same arena
         (``sim.distfield.SHARED``)."""
         if self.field_ is None:
-            sp = self.spatial
             sites = self.site_points()
-            key = (sp.width_m, sp.height_m, self.inflate_m, self.obstacles, sites.tobytes())
-            self.field_ = SHARED.get(key, lambda: DistanceField.build(self, sites))
+            self.field_ = SHARED.get(self.field_key(), lambda: DistanceField.build(self, sites))
         return self.field_
+
+    def field_key(self) -> tuple:
+        """What the distance field depends on: arena, inflation, current obstacles, sites."""
+        sp = self.spatial
+        return (
+            sp.width_m,
+            sp.height_m,
+            self.inflate_m,
+            self.obstacles,
+            self.site_points().tobytes(),
+        )
 
     def exact_distances(self, positions: np.ndarray, sites: np.ndarray) -> np.ndarray:
         """:meth:`distances` computed from scratch: the straight line where it is free, else

@@ -249,31 +249,33 @@ class SightIndex:
     the obstacles of its direction's sector, so an exact test needs only those.
     """
 
-    def __init__(self, points: np.ndarray, polys: Obstacles, bins: int = 1024) -> None:
+    def __init__(
+        self, points: np.ndarray, polys: Obstacles, bins: int = 1024, chunk: int = 64
+    ) -> None:
         x = np.asarray(points, dtype=float).reshape(-1, 2)
         self.points, self.bins = x, bins
         n_pts, k = len(x), len(polys.offsets)
-        if k:
-            front, dr, dl = tangents(x, polys)
-            step = 2 * np.pi / bins
+        counts, obstacles = [np.zeros(1, dtype=np.int64)], [np.zeros(0, dtype=np.int16)]
+        step = 2 * np.pi / bins
+        for c0 in range(0, n_pts if k else 0, chunk):
+            part = x[c0 : c0 + chunk]
+            front, dr, dl = tangents(part, polys)
             a0 = np.arctan2(dr[..., 1], dr[..., 0]) - 1e-6
             width = np.mod(np.arctan2(dl[..., 1], dl[..., 0]) - a0, 2 * np.pi) + 2e-6
             width = np.where(front.any(axis=2), np.minimum(width, 2 * np.pi), 2 * np.pi)
             lo = np.floor(a0 / step).astype(np.int64)
-            hi = np.floor((a0 + width) / step).astype(np.int64)
-            n = np.minimum(hi - lo + 1, bins)
+            n = np.minimum(np.floor((a0 + width) / step).astype(np.int64) - lo + 1, bins)
             p, kk = np.nonzero(n > 0)
-            owner, obstacle = np.repeat(p, n[p, kk]), np.repeat(kk, n[p, kk])
-            offset = np.arange(n.sum()) - np.repeat(np.cumsum(n[p, kk]) - n[p, kk], n[p, kk])
-            sector = np.mod(np.repeat(lo[p, kk], n[p, kk]) + offset, bins)
-            key = owner * bins + sector
+            n = n[p, kk]
+            offset = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+            key = np.repeat(p * bins, n) + np.mod(np.repeat(lo[p, kk], n) + offset, bins)
             order = np.argsort(key, kind="stable")
-            first = np.searchsorted(key[order], np.arange(n_pts * bins + 1))
-            self.obstacle_ = obstacle[order].astype(np.int32)
-            self.start_ = first
-        else:
-            self.obstacle_ = np.zeros(0, dtype=np.int32)
-            self.start_ = np.zeros(n_pts * bins + 1, dtype=np.int64)
+            obstacles.append(np.repeat(kk, n)[order].astype(np.int16))
+            counts.append(np.bincount(key, minlength=len(part) * bins))
+        if not k:
+            counts.append(np.zeros(n_pts * bins, dtype=np.int64))
+        self.start_ = np.cumsum(np.concatenate(counts))
+        self.obstacle_ = np.concatenate(obstacles)
 
     @property
     def nbytes(self) -> int:

@@ -19,7 +19,11 @@
   ExpT-MRTA, distance cost, seed 0) with our renderer against ``FuncAnimation`` +
   ``PillowWriter`` on the same frames (``sim.bench_render``);
 - ``alloc``: allocation time per round against team size, 50 task types, 7 tasks a round
-  (``allocation.bench_alloc``), market plus QL-MRTA and ExpT-MRTA.
+  (``allocation.bench_alloc``), market plus QL-MRTA and ExpT-MRTA; the market's ms per round
+  under the abstract, straight-line, planned-distance and planned-time cost models at 10, 100
+  and 1000 robots in the synthetic arena (``bench_costs``); and scipy's linear assignment
+  against LAPJV (``lapx``, when installed) on the spatial rounds' matrices at 100 to 2000
+  bidders (``bench_assignment``).
 
 Machines here are shared and noisy: compare the ratios, not the absolute times.
 """
@@ -166,7 +170,7 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             f"({g['baseline_seconds'] / g['seconds']:.1f}x faster)"
         )
     if "alloc" in parts:
-        from allocation.bench_alloc import bench_alloc
+        from allocation.bench_alloc import bench_alloc, bench_assignment, bench_costs
         from learning import ALLOCATORS
 
         say("alloc: ms per round, 50 types, 7 tasks a round ...")
@@ -174,4 +178,31 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
         for n, r in out["alloc"].items():
             extra = "  ".join(f"{k} {v:.3g}" for k, v in r.items() if k != "ms_per_round")
             say(f"  {n:>5} robots: market {r['ms_per_round']:.3f} ms/round  {extra}")
+        say("alloc: market ms per round by cost model, bench arena, robots spread, 7 tasks ...")
+        out["alloc_costs"] = bench_costs()
+        for n, r in out["alloc_costs"].items():
+            field = ""
+            if "field_build_s" in r:
+                field = (
+                    f"  (distance field built once in {r['field_build_s']:.1f} s, holds "
+                    f"{r['field_mib']:.0f} MiB, {r['field_peak_mib']:.0f} MiB peak while built)"
+                )
+            say(
+                f"  {n:>5} robots: abstract {r['abstract_ms']:.3f}  straight {r['straight_ms']:.3f}"
+                f"  planned distance {r['distance_ms']:.3f}  planned time {r['time_ms']:.3f}{field}"
+            )
+        say("alloc: linear assignment, scipy vs LAPJV (lapx, if installed), n robots x n tasks ...")
+        out["assignment"] = bench_assignment()
+        for n, r in out["assignment"].items():
+            cells = []
+            for kind in ("dense", "sparse"):
+                cell = f"{kind}: scipy {r[f'scipy_{kind}_ms']:.1f} ms"
+                if f"lapjv_{kind}_ms" in r:
+                    same = "same optimum" if r[f"same_{kind}"] else "OTHER OBJECTIVE"
+                    cell += (
+                        f", LAPJV {r[f'lapjv_{kind}_ms']:.1f} ms "
+                        f"(scipy/LAPJV {r[f'ratio_{kind}']:.2f}, {same})"
+                    )
+                cells.append(cell)
+            say(f"  {n:>5} bidders: " + "; ".join(cells))
     return out

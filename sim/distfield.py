@@ -105,7 +105,7 @@ class DistanceField:
         zv = verts @ np.array([1.0, 1j])
         zg = goals @ np.array([1.0, 1j])
         # anchors 0..V-1 the vertices, V the site, V + 1 "no path", V + 2 "several candidates"
-        self.inf_code_, self.mixed_code_ = nv + 1, nv + 2
+        self.inf_code_, self.mixed_code_, self.group_base_ = nv + 1, nv + 2, nv + 3
         nothing = np.zeros((n_sites, 2))
         self.anchor_z_ = np.concatenate(
             [np.broadcast_to(zv, (n_sites, nv)), zg[:, None], nothing], axis=1
@@ -129,7 +129,7 @@ class DistanceField:
             pyramid[-1] = pyramid[-1].reshape(len(ras), -1)
         t2 = time.perf_counter()
         wedge = _wedge_geometry(pl)
-        table = np.empty((grid.nx * grid.ny, n_sites), dtype=np.int16)
+        table = np.empty((grid.nx * grid.ny, n_sites), dtype=np.uint16)
         mixed = []
         for s0 in range(0, n_sites, SITES_PER_PASS):
             s1 = min(n_sites, s0 + SITES_PER_PASS)
@@ -263,7 +263,13 @@ class DistanceField:
         raise AssertionError("unreachable")
 
     def _index_mixed(self, mixed) -> None:
-        """Sort the undecided (cell, site) pairs' candidates into a searchable index."""
+        """File the undecided (cell, site) pairs' candidate lists.
+
+        Many pairs share one list (the same anchors, each seen whole or not): the most common
+        lists get table codes of their own (``group_base_`` on), so a query reads its list
+        directly; pairs with a rare list keep the code ``mixed_code_`` and are found by key
+        (cell * sites + site) in a sorted index."""
+        n_sites = len(self.sites)
         key = np.concatenate([m[0] for m in mixed])
         anchor = np.concatenate([m[1] for m in mixed])
         full = np.concatenate([m[2] for m in mixed])
@@ -272,10 +278,45 @@ class DistanceField:
         key, anchor, full = key[order], anchor[order], full[order]
         del order
         starts = _starts(key)
-        self.mixed_key_ = key[starts]
-        self.mixed_start_ = np.append(starts, len(key)).astype(np.int32)
-        self.mixed_anchor_ = anchor
-        self.mixed_full_ = full
+        sizes = np.diff(np.append(starts, len(key)))
+        rank = np.arange(len(key)) - np.repeat(starts, sizes)
+        code = anchor.astype(np.uint64) * np.uint64(2) + full.astype(np.uint64) + np.uint64(1)
+        with np.errstate(over="ignore"):
+            mix = np.uint64(0x9E3779B97F4A7C15)
+            digest = (
+                np.add.reduceat(code * mix ** rank.astype(np.uint64), starts) if len(key) else code
+            )
+            digest = digest * mix + sizes.astype(np.uint64)
+        _, rep, which, count = np.unique(
+            digest, return_index=True, return_inverse=True, return_counts=True
+        )
+        rep_pair = rep[which]  # the first pair with the same digest: its list must be equal
+        same = sizes == sizes[rep_pair]
+        entry_pair = np.repeat(np.arange(len(starts)), sizes)
+        ref = starts[rep_pair[entry_pair]] + np.minimum(rank, sizes[rep_pair[entry_pair]] - 1)
+        equal = np.logical_and.reduceat(code == code[ref], starts) if len(key) else same
+        same &= equal
+        capacity = np.iinfo(self.table_.dtype).max + 1 - self.group_base_
+        popular = np.argsort(-count, kind="stable")[:capacity]
+        group_of = np.full(len(count), -1)
+        group_of[popular] = np.arange(len(popular))
+        group = np.where(same, group_of[which], -1)
+        listed = np.flatnonzero(group >= 0)
+        cell, site = key[starts[listed]] // n_sites, key[starts[listed]] % n_sites
+        self.table_[cell, site] = self.group_base_ + group[listed]
+        first = starts[rep[popular]]
+        g_sizes = sizes[rep[popular]]
+        g_entry = np.repeat(first - np.cumsum(g_sizes) + g_sizes, g_sizes) + np.arange(
+            g_sizes.sum()
+        )
+        rest = np.repeat(group < 0, sizes)
+        self.group_start_ = np.append(0, np.cumsum(g_sizes)).astype(np.int32)
+        self.mixed_key_ = key[starts[group < 0]]
+        self.mixed_start_ = (len(g_entry) + np.append(0, np.cumsum(sizes[group < 0]))).astype(
+            np.int32
+        )
+        self.entry_anchor_ = np.concatenate([anchor[g_entry], anchor[rest]])
+        self.entry_full_ = np.concatenate([full[g_entry], full[rest]])
 
     @property
     def nbytes(self) -> int:
@@ -292,8 +333,9 @@ class DistanceField:
             self.care_,
             self.mixed_key_,
             self.mixed_start_,
-            self.mixed_anchor_,
-            self.mixed_full_,
+            self.group_start_,
+            self.entry_anchor_,
+            self.entry_full_,
         )
         return sum(a.nbytes for a in arrays)
 
@@ -327,35 +369,50 @@ class DistanceField:
                     return np.insert(out, odd - np.arange(len(odd)), exact, axis=0)
         z = snapped @ np.array([1.0, 1j])
         codes = self.table_[cell][:, cols]
-        flat = (cols * self.anchor_f_.shape[1])[None, :] + codes
-        out = np.abs(z[:, None] - self.anchor_z_.ravel()[flat])
-        out += self.anchor_f_.ravel()[flat]  # inf where no path, NaN where several candidates
-        r, c = np.nonzero(codes == self.mixed_code_)
-        if r.size:
-            out[r, c] = self._mixed(snapped, z, r, cell[r], cols[c])
+        nv, mixed = self.n_vertices_, self.mixed_code_
+        out = np.abs(z[:, None] - self.anchor_z_[cols, nv][None, :])  # most see their site
+        flat = np.flatnonzero(codes != nv)
+        r, c = np.divmod(flat, len(cols))
+        code = codes.ravel()[flat]
+        via = np.flatnonzero(code < nv)
+        at = cols[c[via]] * self.anchor_f_.shape[1] + code[via]
+        zv = self.anchor_z_.ravel()[at]
+        out.ravel()[flat[via]] = np.abs(z[r[via]] - zv) + self.anchor_f_.ravel()[at]
+        out.ravel()[flat[code == self.inf_code_]] = np.inf
+        several = np.flatnonzero(code >= mixed)
+        if several.size:
+            r, c = r[several], c[several]
+            out.ravel()[flat[several]] = self._mixed(snapped, z, r, cell[r], cols[c], code[several])
         if extra is not None:
-            out += extra[:, None]
+            out[bad] += extra[bad, None]
         goal_extra = self.goal_extra_[cols]
         if goal_extra.any():
             out += goal_extra[None, :]
         return out
 
-    def _mixed(self, pts, z, robot: np.ndarray, cell: np.ndarray, cols: np.ndarray):
-        """Distances of the (robot, site) pairs whose cell keeps several candidates: the
-        cheapest candidate the robot sees (one exact test per robot and candidate point)."""
+    def _mixed(self, pts, z, robot, cell: np.ndarray, cols: np.ndarray, code: np.ndarray):
+        """Distances of the (robot, site) pairs whose cell keeps several candidates (table
+        ``code``): the cheapest candidate the robot sees (one exact test per robot and
+        candidate point)."""
         nv, n_pts = self.n_vertices_, self.n_vertices_ + len(self.sites)
-        row = np.searchsorted(self.mixed_key_, (cell * len(self.sites) + cols).astype(np.int32))
-        lo, hi = self.mixed_start_[row], self.mixed_start_[row + 1]
+        group = code.astype(np.int64) - self.group_base_
+        lo = self.group_start_[np.maximum(group, 0)]
+        hi = self.group_start_[np.maximum(group, 0) + 1]
+        rare = np.flatnonzero(group < 0)
+        if rare.size:
+            key = (cell[rare] * len(self.sites) + cols[rare]).astype(np.int32)
+            row = np.searchsorted(self.mixed_key_, key)
+            lo[rare], hi[rare] = self.mixed_start_[row], self.mixed_start_[row + 1]
         sizes = hi - lo
         entry = np.repeat(lo - np.cumsum(sizes) + sizes, sizes) + np.arange(sizes.sum())
-        pair = np.repeat(np.arange(len(row)), sizes)
-        anchor = self.mixed_anchor_[entry].astype(np.int64)
+        pair = np.repeat(np.arange(len(code)), sizes)
+        anchor = self.entry_anchor_[entry].astype(np.int64)
         s = cols[pair]
         at = s * self.anchor_f_.shape[1] + anchor
         az = self.anchor_z_.ravel()[at]
         value = np.abs(z[robot[pair]] - az) + self.anchor_f_.ravel()[at]
         starts = np.cumsum(sizes) - sizes
-        full = self.mixed_full_[entry]
+        full = self.entry_full_[entry]
         sure = np.minimum.reduceat(np.where(full, value, np.inf), starts)
         test = np.flatnonzero(~full & (value < sure[pair]))  # could beat the best one seen whole
         if test.size:

@@ -218,3 +218,19 @@ def test_bench_arena_field_equals_the_planner():
     np.testing.assert_allclose(
         got[np.isfinite(want)], want[np.isfinite(want)], rtol=1e-12, atol=1e-9
     )
+
+
+@pytest.mark.parametrize("arena", ["obstacles", "clutter"])
+def test_blocked_by_decides_as_blocked(arena):
+    """The one-obstacle test the field's queries use equals the planner's segment test,
+    segments ending on inflated corners and running along edges included."""
+    planner = planner_with_sites(ARENAS[arena])
+    rng = np.random.default_rng(10)
+    a, b = rng.uniform(-1, 21, size=(2, 3000, 2))
+    corners = np.concatenate(planner.polygons_)
+    b[: len(corners)] = corners
+    a[len(corners) : 2 * len(corners)] = corners
+    b[len(corners) : 2 * len(corners)] = np.roll(corners, 1, axis=0)  # along the edges
+    k = len(planner.polygons_)
+    per = np.array([planner.blocked_by(a, b, np.full(len(a), j)) for j in range(k)])
+    np.testing.assert_array_equal(per.any(axis=0), planner.blocked(a, b))

@@ -183,7 +183,7 @@ def field_report(planner, xy: np.ndarray, rng: np.random.Generator, repeat: int 
         "field_build_s": field.build_s_,
         **{f"field_{k}": v for k, v in field.timings_.items()},
         "field_mib": field.nbytes / 2**20,
-        "field_mixed_share": len(field.mixed_key_) / field.table_.size,
+        "field_mixed_share": float((field.table_ >= field.mixed_code_).mean()),
         "dist_all_ms": best(lambda: planner.distances(xy, sites)),
         "dist_50_ms": best(lambda: planner.distances(xy, some)),
         "straight_all_ms": best(straight(sites)),

@@ -274,28 +274,38 @@ class DistanceField:
         anchor = np.concatenate([m[1] for m in mixed])
         full = np.concatenate([m[2] for m in mixed])
         mixed.clear()
-        order = np.argsort(key, kind="stable")
-        key, anchor, full = key[order], anchor[order], full[order]
-        del order
-        starts = _starts(key)
+        starts = _starts(key)  # each pair's candidates are consecutive
         sizes = np.diff(np.append(starts, len(key)))
-        rank = np.arange(len(key)) - np.repeat(starts, sizes)
-        code = anchor.astype(np.uint64) * np.uint64(2) + full.astype(np.uint64) + np.uint64(1)
-        with np.errstate(over="ignore"):
+        rank = np.arange(len(key), dtype=np.int32) - np.repeat(starts.astype(np.int32), sizes)
+        code = anchor.astype(np.int32) * 2 + full + 1
+        digest = np.zeros(len(starts), dtype=np.uint64)
+        step = 1 << 16  # pairs per pass: bounds the temporaries
+        with np.errstate(over="ignore"):  # a digest: uint64 arithmetic wraps on purpose
             mix = np.uint64(0x9E3779B97F4A7C15)
-            digest = (
-                np.add.reduceat(code * mix ** rank.astype(np.uint64), starts) if len(key) else code
-            )
+            powers = np.full(int(sizes.max(initial=1)), mix, dtype=np.uint64)
+            powers[0] = 1
+            powers = np.cumprod(powers)  # mix ** rank
+            for p0 in range(0, len(starts), step):
+                lo = starts[p0]
+                hi = starts[p0 + step] if p0 + step < len(starts) else len(key)
+                term = code[lo:hi].astype(np.uint64) * powers[rank[lo:hi]]
+                digest[p0 : p0 + step] = np.add.reduceat(term, starts[p0 : p0 + step] - lo)
             digest = digest * mix + sizes.astype(np.uint64)
+        del rank
         _, rep, which, count = np.unique(
             digest, return_index=True, return_inverse=True, return_counts=True
         )
+        del digest
         rep_pair = rep[which]  # the first pair with the same digest: its list must be equal
         same = sizes == sizes[rep_pair]
-        entry_pair = np.repeat(np.arange(len(starts)), sizes)
-        ref = starts[rep_pair[entry_pair]] + np.minimum(rank, sizes[rep_pair[entry_pair]] - 1)
-        equal = np.logical_and.reduceat(code == code[ref], starts) if len(key) else same
-        same &= equal
+        for p0 in range(0, len(starts), step):
+            part = slice(p0, p0 + step)
+            lo = starts[p0]
+            hi = starts[p0 + step] if p0 + step < len(starts) else len(key)
+            ref = np.repeat(starts[rep_pair[part]] - starts[part], sizes[part]) + np.arange(lo, hi)
+            ref = np.minimum(ref, len(key) - 1)
+            same[part] &= np.logical_and.reduceat(code[lo:hi] == code[ref], starts[part] - lo)
+        del code
         capacity = np.iinfo(self.table_.dtype).max + 1 - self.group_base_
         popular = np.argsort(-count, kind="stable")[:capacity]
         group_of = np.full(len(count), -1)
@@ -309,14 +319,16 @@ class DistanceField:
         g_entry = np.repeat(first - np.cumsum(g_sizes) + g_sizes, g_sizes) + np.arange(
             g_sizes.sum()
         )
-        rest = np.repeat(group < 0, sizes)
+        rare = np.flatnonzero(group < 0)
+        rare = rare[np.argsort(key[starts[rare]], kind="stable")]
+        r_sizes = sizes[rare]
+        r_entry = np.repeat(starts[rare] - np.cumsum(r_sizes) + r_sizes, r_sizes)
+        r_entry += np.arange(r_sizes.sum())
         self.group_start_ = np.append(0, np.cumsum(g_sizes)).astype(np.int32)
-        self.mixed_key_ = key[starts[group < 0]]
-        self.mixed_start_ = (len(g_entry) + np.append(0, np.cumsum(sizes[group < 0]))).astype(
-            np.int32
-        )
-        self.entry_anchor_ = np.concatenate([anchor[g_entry], anchor[rest]])
-        self.entry_full_ = np.concatenate([full[g_entry], full[rest]])
+        self.mixed_key_ = key[starts[rare]]
+        self.mixed_start_ = (len(g_entry) + np.append(0, np.cumsum(r_sizes))).astype(np.int32)
+        self.entry_anchor_ = np.concatenate([anchor[g_entry], anchor[r_entry]])
+        self.entry_full_ = np.concatenate([full[g_entry], full[r_entry]])
 
     @property
     def nbytes(self) -> int:

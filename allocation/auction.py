@@ -57,9 +57,26 @@ def solve_priority_assignment_dense(bids: np.ndarray, high: np.ndarray) -> np.nd
     """
     k = bids.shape[1]
     out = np.full(k, -1, dtype=int)
+    problem = priority_cost_matrix(bids, high)
+    if problem is None:
+        return out
+    cost, rows, cols, ok = problem
+    r, c = linear_sum_assignment(cost)
+    take = ok[r, c]
+    out[cols[c[take]]] = rows[r[take]]
+    return out
+
+
+def priority_cost_matrix(bids: np.ndarray, high: np.ndarray):
+    """The linear assignment problem :func:`solve_priority_assignment_dense` solves.
+
+    Returns:
+        (cost, rows, cols, ok): the cost matrix over the robots ``rows`` and tasks ``cols``
+        that have a bid, and which of its entries are bids; None if there is no bid.
+    """
     valid = np.isfinite(bids)
     if not valid.any():
-        return out
+        return None
     rows = np.flatnonzero(valid.any(axis=1))
     cols = np.flatnonzero(valid.any(axis=0))
     sub = bids[np.ix_(rows, cols)]
@@ -68,11 +85,7 @@ def solve_priority_assignment_dense(bids: np.ndarray, high: np.ndarray) -> np.nd
     scale = float(sub[ok].max()) * (n_max + 1) + 1.0
     worth = np.where(high[cols], n_max + 1.0, 1.0)
     gain = worth[None, :] - np.where(ok, sub, 0.0) / scale
-    cost = np.where(ok, -gain, 0.0)
-    r, c = linear_sum_assignment(cost)
-    take = ok[r, c]
-    out[cols[c[take]]] = rows[r[take]]
-    return out
+    return np.where(ok, -gain, 0.0), rows, cols, ok
 
 
 class MarketAllocator:

@@ -171,3 +171,141 @@ def bench_alloc(
         )
         out[str(m)] = row
     return out
+
+
+SPATIAL_SIZES = (10, 100, 1000)
+SPATIAL_ROUNDS = {10: 100, 100: 30, 1000: 100}  # the exact query at 100 robots is the slow one
+
+
+def bench_costs(
+    sizes: Sequence[int] = SPATIAL_SIZES,
+    tasks: int = 7,
+    rounds: Mapping[int, int] | None = None,
+    seed: int = 0,
+) -> dict[str, dict[str, float]]:
+    """Allocation time per round under each cost model, in the arena of ``mrta bench``.
+
+    For each size the synthetic arena of ``sim.bench_arena`` (1000 robots: 115 m, 97 boxes,
+    500 sites) with the robots at random free points, all free; rounds of ``tasks`` tasks at
+    random sites; the market auction. A round is the cost model's bids plus the auction.
+
+    Returns:
+        ``{"1000": {"abstract_ms", "straight_ms", "distance_ms", "time_ms", ...}, ...}``: mean
+        ms per round under the scenario's cost table, straight lines, planned distances and
+        planned times; where the planner builds its distance field (from
+        ``sim.planning.FIELD_MIN_ROBOTS`` robots), ``field_build_s``, ``field_mib`` (held) and
+        ``field_peak_mib`` (tracemalloc peak while building), measured apart from the rounds.
+    """
+    from allocation.costs import DistanceCost, StraightLineCost, TimeCost
+    from sim.bench_arena import bench_scenario
+    from sim.distfield import SHARED, DistanceField
+    from sim.planning import FIELD_MIN_ROBOTS, GridPlanner
+
+    rounds = {**SPATIAL_ROUNDS, **(rounds or {})}
+    out: dict[str, dict[str, float]] = {}
+    for m in sizes:
+        rng = np.random.default_rng([seed, m])
+        sc = bench_scenario(int(m), rng)
+        planner = GridPlanner(sc.spatial)
+        row: dict[str, float] = {"robots": int(m), "tasks_per_round": tasks}
+        if m >= FIELD_MIN_ROBOTS:
+            sites = planner.site_points()
+            tracemalloc.start()
+            try:
+                t0 = time.perf_counter()
+                field = DistanceField.build(planner, sites)
+                row["field_build_s"] = time.perf_counter() - t0
+                row["field_peak_mib"] = tracemalloc.get_traced_memory()[1] / 2**20
+            finally:
+                tracemalloc.stop()
+            row["field_mib"] = field.nbytes / 2**20
+            planner.field_ = SHARED.get(planner.field_key(), lambda f=field: f)
+        cand = rng.uniform(0.0, sc.spatial.width_m, size=(4 * m, 2))
+        xy = cand[planner.free(cand)][:m]
+        state = WorldState(0.0, np.ones(m, dtype=bool), np.zeros(m), xy)
+        site_pts = planner.site_points()
+        batches = []
+        n_rounds = rounds.get(int(m), 30)
+        for r in range(n_rounds):
+            pick = site_pts[rng.integers(0, len(site_pts), size=tasks)]
+            high = rng.random(tasks) < 0.35
+            ids = np.arange(r * tasks, (r + 1) * tasks)
+            batches.append(Batch(0, r, ids, np.zeros(tasks, dtype=int), high, pick))
+        models = {
+            "abstract": AbstractCost(sc),
+            "straight": StraightLineCost(sc),
+            "distance": DistanceCost(sc, planner),
+            "time": TimeCost(sc, planner),
+        }
+        for name, cost in models.items():
+            market = _build(MarketAllocator, sc, np.random.default_rng([seed, m, 1]))
+            secs = _time_rounds(market, state, cost, batches)
+            row[f"{name}_ms"] = float(secs.mean() * 1e3)
+        out[str(m)] = row
+    return out
+
+
+def bench_assignment(
+    sizes: Sequence[int] = (100, 750, 1000, 2000), seed: int = 0, repeat: int = 3
+) -> dict[str, dict[str, float]]:
+    """scipy's ``linear_sum_assignment`` against LAPJV (``lapx``'s ``lap.lapjv``) on the
+    matrices of ``mrta bench``'s spatial rounds.
+
+    n robots at random free points of the 1000-robot arena bid planned distances for n tasks
+    at random sites (a busy round: as many tasks as free robots), folded into one assignment
+    problem as :func:`allocation.auction.solve_priority_assignment_dense` does (35 % high
+    priority). ``dense``: every robot bids; ``sparse``: each robot is capable of a task with
+    probability 0.1 (a team like ``scale1000``: 50 types, 2-8 each). Best of ``repeat``.
+
+    Returns:
+        ``{"1000": {"scipy_dense_ms", "lapjv_dense_ms", "ratio_dense", "same_dense", ...}}``;
+        the ``lapjv`` entries only if ``lapx`` is installed (it is not a dependency).
+        ``ratio`` is scipy's time over LAPJV's (> 1: LAPJV faster), ``same`` 1.0 if both
+        optima have the same objective (to 1e-13 relative) and 0.0 if not.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    from allocation.auction import priority_cost_matrix
+    from sim.bench_arena import bench_scenario
+    from sim.planning import GridPlanner
+
+    try:
+        import lap
+    except ImportError:
+        lap = None
+    rng = np.random.default_rng([seed, 1000])
+    sc = bench_scenario(1000, rng)
+    planner = GridPlanner(sc.spatial)
+    sites = planner.site_points()
+
+    def best(fn, times: int):
+        secs = []
+        for _ in range(times):
+            t0 = time.perf_counter()
+            result = fn()
+            secs.append(time.perf_counter() - t0)
+        return 1e3 * min(secs), result
+
+    out: dict[str, dict[str, float]] = {}
+    for n in sizes:
+        cand = rng.uniform(0.0, sc.spatial.width_m, size=(4 * n, 2))
+        xy = cand[planner.free(cand)][:n]
+        dist = planner.distances(xy, sites[rng.integers(0, len(sites), size=n)])
+        high = rng.random(n) < 0.35
+        row: dict[str, float] = {"bidders": int(n)}
+        for kind in ("dense", "sparse"):
+            bids = dist if kind == "dense" else np.where(rng.random((n, n)) < 0.1, dist, np.inf)
+            cost = priority_cost_matrix(bids, high)[0]
+            ms, (r, c) = best(lambda cost=cost: linear_sum_assignment(cost), repeat)
+            row[f"scipy_{kind}_ms"] = ms
+            if lap is not None:
+                ms_l, (_, x, _) = best(
+                    lambda cost=cost: lap.lapjv(cost, extend_cost=True), 1 if n > 1000 else repeat
+                )
+                taken = x >= 0
+                ours = cost[np.flatnonzero(taken), x[taken]].sum()
+                row[f"lapjv_{kind}_ms"] = ms_l
+                row[f"ratio_{kind}"] = ms / ms_l
+                row[f"same_{kind}"] = float(np.isclose(ours, cost[r, c].sum(), rtol=1e-13, atol=0))
+        out[str(n)] = row
+    return out

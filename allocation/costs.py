@@ -49,6 +49,24 @@ class DistanceCost:
         return np.where(self.capable_[:, batch.types], dist, np.inf)
 
 
+class StraightLineCost:
+    """Straight-line distance (m) from each robot to each task: the baseline that planned
+    distances never go below (``mrta bench`` compares their cost per round); not a mission
+    cost model, so not in ``COST_MODELS``."""
+
+    name = "straight"
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.capable_ = scenario.capability_matrix()
+
+    def costs(self, state: WorldState, batch: Batch) -> np.ndarray:
+        if state.positions is None:
+            raise ValueError("straight-line costs need a spatial world (scenario has no [spatial])")
+        z = state.positions @ np.array([1.0, 1j])
+        dist = np.abs(z[:, None] - batch.sites @ np.array([1.0, 1j]))
+        return np.where(self.capable_[:, batch.types], dist, np.inf)
+
+
 class TimeCost(DistanceCost):
     """Estimated time to finish (s): path length / top speed + execution time."""
 

@@ -5,16 +5,25 @@
   the task stream, bidding, allocation, physics, control, task bookkeeping and trajectory
   recording of ``mrta run``, timed over the first ``PAPER_SETS`` task sets (learning and test
   phase). Beside it, and for 100 and 1000 robots, a synthetic arena in which every robot is
-  always busy (``sim.bench_sim``: every simulated second the free robots' tasks are auctioned,
-  bids being straight-line distances; physics, control, task bookkeeping and recording as in a
-  run); the 10-robot figures of that arena are reported as ``busy_*`` members of the ``"10"``
-  row. ``bids_ms`` is the time the ``distance`` cost model takes to bid every robot on a
-  paper-sized batch of 7 tasks (planned path lengths around the obstacles);
+  always busy (``sim.bench_sim``: every 10 simulated seconds the free robots' tasks are
+  auctioned, bids being planned path lengths (:class:`PlannedMarket`, the ``distance`` cost
+  model); physics, control, task bookkeeping and recording as in a run); the 10-robot figures
+  of that arena are reported as ``busy_*`` members of the ``"10"`` row. ``bids_ms`` is the time
+  the ``distance`` cost model takes to bid every robot on a paper-sized batch of 7 tasks,
+  ``round_bids_ms`` / ``round_auction_ms`` what bidding and the auction took per round of the
+  timed loop. With 1000 robots the bids come from the distance field (``sim.distfield``),
+  built during the warm-up: its build time, memory, ms per call for all robots x all 500 sites
+  and x 50 sites against numpy straight lines, and its largest difference from the exact query
+  are reported (``sim.bench_sim.field_report``);
 - ``gif``: a 200-frame 600x600 GIF of the 10-robot ``paper_spatial`` scenario (one task set,
   ExpT-MRTA, distance cost, seed 0) with our renderer against ``FuncAnimation`` +
   ``PillowWriter`` on the same frames (``sim.bench_render``);
 - ``alloc``: allocation time per round against team size, 50 task types, 7 tasks a round
-  (``allocation.bench_alloc``), market plus QL-MRTA and ExpT-MRTA.
+  (``allocation.bench_alloc``), market plus QL-MRTA and ExpT-MRTA; the market's ms per round
+  under the abstract, straight-line, planned-distance and planned-time cost models at 10, 100
+  and 1000 robots in the synthetic arena (``bench_costs``); and scipy's linear assignment
+  against LAPJV (``lapx``, when installed) on the spatial rounds' matrices at 100 to 2000
+  bidders (``bench_assignment``).
 
 Machines here are shared and noisy: compare the ratios, not the absolute times.
 """
@@ -27,24 +36,37 @@ PARTS = ("sim", "gif", "alloc")
 PAPER_SETS = 8  # task sets of paper_spatial timed by the 10-robot figure (about 3,400 s simulated)
 
 
-def market_on_straight_lines(scenario, world):
+class PlannedMarket:
     """``allocate(batch)`` for ``sim.bench_sim``: the market auction among the free robots,
-    each bidding its straight-line distance to each task (planned distances for hundreds of
-    robots and tasks would measure the planner, which ``bids_ms`` reports on its own)."""
-    import numpy as np
+    each bidding its planned path length (the ``distance`` cost model: ``GridPlanner.distances``,
+    from the distance field with hundreds of robots). ``timings_`` adds up the seconds spent
+    bidding and in the auction, and the rounds."""
 
-    from allocation.auction import solve_priority_assignment
+    def __init__(self, scenario, world) -> None:
+        from allocation.costs import DistanceCost
 
-    def allocate(batch):
-        state = world.snapshot()
+        self.world = world
+        self.cost = DistanceCost(scenario, world.planner)
+        self.timings_ = {"bids_s": 0.0, "auction_s": 0.0, "rounds": 0}
+
+    def __call__(self, batch):
+        import time
+
+        import numpy as np
+
+        from allocation.auction import solve_priority_assignment
+
+        state = self.world.snapshot()
         free = np.flatnonzero(state.free)
-        z = state.positions[free] @ np.array([1.0, 1j])
-        costs = np.full((len(state.free), len(batch.ids)), np.inf)
-        costs[free] = np.abs(z[:, None] - batch.sites @ np.array([1.0, 1j]))
+        t0 = time.perf_counter()
+        costs = self.cost.costs(state, batch)
+        t1 = time.perf_counter()
         won = solve_priority_assignment(costs[free], batch.high)  # only free robots bid
+        t2 = time.perf_counter()
+        self.timings_["bids_s"] += t1 - t0
+        self.timings_["auction_s"] += t2 - t1
+        self.timings_["rounds"] += 1
         return np.where(won >= 0, free[np.maximum(won, 0)], -1), costs
-
-    return allocate
 
 
 def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
@@ -105,18 +127,33 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
         from sim.bench_sim import bench_sim
 
         say("sim: full loop vs bare space.step, physics at 60 Hz, control at 10 Hz ...")
-        synthetic = bench_sim(allocator=market_on_straight_lines)
+        synthetic = bench_sim(allocator=PlannedMarket)
         paper = bench_paper_loop()
         paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
         out["sim"] = {"10": paper, **synthetic}
         for n, r in out["sim"].items():
             what = "paper_spatial, whole run loop" if n == "10" else "busy synthetic arena"
             if n != "10":
-                what += f"; planned-distance bids, all robots x 7 tasks: {r['bids_ms']:.1f} ms"
+                what += (
+                    f", planned-distance bids: {r['round_bids_ms']:.1f} ms + auction "
+                    f"{r['round_auction_ms']:.1f} ms per round; all robots x 7 tasks: "
+                    f"{r['bids_ms']:.1f} ms"
+                )
             say(
                 f"  {n:>5} robots: {r['steps_per_s']:>9,.0f} steps/s  {r['rtf']:>7,.0f}x real time "
                 f" loop/bare = {r['bare_ratio']:.2f}  ({what})"
             )
+            if "field_build_s" in r:
+                say(
+                    f"         distance field: built in {r['field_build_s']:.1f} s "
+                    f"(fields {r['field_fields_s']:.1f}, raster {r['field_raster_s']:.1f}, "
+                    f"refine {r['field_refine_s']:.1f}), {r['field_mib']:.0f} MiB, "
+                    f"{100 * r['field_mixed_share']:.1f} % of cell-site pairs tested exactly; "
+                    f"all robots x all sites {r['dist_all_ms']:.1f} ms "
+                    f"(straight lines {r['straight_all_ms']:.1f} ms), x 50 sites "
+                    f"{r['dist_50_ms']:.1f} ms ({r['straight_50_ms']:.2f} ms); "
+                    f"largest difference from the exact query {r['field_max_err_m']:.1e} m"
+                )
         busy = out["sim"]["10"]
         say(
             f"     10 robots, busy synthetic arena: {busy['busy_rtf']:,.0f}x real time, "
@@ -133,7 +170,7 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             f"({g['baseline_seconds'] / g['seconds']:.1f}x faster)"
         )
     if "alloc" in parts:
-        from allocation.bench_alloc import bench_alloc
+        from allocation.bench_alloc import bench_alloc, bench_assignment, bench_costs
         from learning import ALLOCATORS
 
         say("alloc: ms per round, 50 types, 7 tasks a round ...")
@@ -141,4 +178,31 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
         for n, r in out["alloc"].items():
             extra = "  ".join(f"{k} {v:.3g}" for k, v in r.items() if k != "ms_per_round")
             say(f"  {n:>5} robots: market {r['ms_per_round']:.3f} ms/round  {extra}")
+        say("alloc: market ms per round by cost model, bench arena, robots spread, 7 tasks ...")
+        out["alloc_costs"] = bench_costs()
+        for n, r in out["alloc_costs"].items():
+            field = ""
+            if "field_build_s" in r:
+                field = (
+                    f"  (distance field built once in {r['field_build_s']:.1f} s, holds "
+                    f"{r['field_mib']:.0f} MiB, {r['field_peak_mib']:.0f} MiB peak while built)"
+                )
+            say(
+                f"  {n:>5} robots: abstract {r['abstract_ms']:.3f}  straight {r['straight_ms']:.3f}"
+                f"  planned distance {r['distance_ms']:.3f}  planned time {r['time_ms']:.3f}{field}"
+            )
+        say("alloc: linear assignment, scipy vs LAPJV (lapx, if installed), n robots x n tasks ...")
+        out["assignment"] = bench_assignment()
+        for n, r in out["assignment"].items():
+            cells = []
+            for kind in ("dense", "sparse"):
+                cell = f"{kind}: scipy {r[f'scipy_{kind}_ms']:.1f} ms"
+                if f"lapjv_{kind}_ms" in r:
+                    same = "same optimum" if r[f"same_{kind}"] else "OTHER OBJECTIVE"
+                    cell += (
+                        f", LAPJV {r[f'lapjv_{kind}_ms']:.1f} ms "
+                        f"(scipy/LAPJV {r[f'ratio_{kind}']:.2f}, {same})"
+                    )
+                cells.append(cell)
+            say(f"  {n:>5} bidders: " + "; ".join(cells))
     return out

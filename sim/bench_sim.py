@@ -23,50 +23,13 @@ import time
 import numpy as np
 
 import sim.contacts
+from sim.bench_arena import bench_scenario
 from sim.physics import PymunkWorld
 from sim.recording import TrajectoryRecorder
-from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
 from sim.tasks import Batch
 
 DEFAULT_SIM_S = {10: 600.0, 100: 120.0, 1000: 30.0}  # a second or two of wall time each
 ROUND_S = 10.0  # with an allocator: a round of announcements and an auction this often
-
-
-def bench_scenario(
-    n: int, rng: np.random.Generator, dt_s: float = 1.0 / 60.0, control_hz: float = 10.0
-) -> Scenario:
-    """A square arena for ``n`` robots on a start grid, with box obstacles and task sites."""
-    side = max(20.0, float(np.ceil(np.sqrt(13.0 * n))))
-    cols = int(np.ceil(np.sqrt(n)))
-    pitch = side / (cols + 1)
-    starts = [((k % cols + 1) * pitch, (k // cols + 1) * pitch) for k in range(n)]
-    obstacles = []
-    for k in range(max(1, n // 10)):
-        cx, cy = (k % cols + 1.5) * pitch, (k // cols + 1.5) * pitch
-        if cx < side - pitch and cy < side - pitch:
-            h = 0.25 * pitch
-            obstacles.append(
-                ((cx - h, cy - h), (cx + h, cy - h), (cx + h, cy + h), (cx - h, cy + h))
-            )
-    spatial = SpatialSpec(
-        side, side, tuple(obstacles), ((),), DriveSpec(), dt_s=dt_s, control_hz=control_hz
-    )
-    from sim.planning import GridPlanner
-
-    planner = GridPlanner(spatial)
-    cand = rng.uniform(1.0, side - 1.0, size=(4 * max(20, n // 2), 2))
-    sites = cand[planner.free(cand)][: max(20, n // 2)]
-    spatial = SpatialSpec(
-        side,
-        side,
-        tuple(obstacles),
-        (tuple(map(tuple, sites.tolist())),),
-        DriveSpec(),
-        dt_s=dt_s,
-        control_hz=control_hz,
-    )
-    robots = tuple(RobotSpec(f"R{k + 1}", (0,), starts[k]) for k in range(n))
-    return Scenario(f"bench{n}", ("T",), robots, ((1.0,),) * n, (2.0,), spatial=spatial)
 
 
 def _run(
@@ -120,12 +83,14 @@ def bench_sim(
 
     Returns:
         ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s",
-        "bare10_steps_per_s", "contact_share", "bids_ms"}}``: physics steps of the full loop
-        per wall second, simulated / wall seconds, full-loop time per step over bare
+        "bare10_steps_per_s", "contact_share", "bids_ms", ...}}``: physics steps of the full
+        loop per wall second, simulated / wall seconds, full-loop time per step over bare
         ``space.step`` time per step, the bare loop's steps per second (as the world sets the
         space, and with ten solver iterations throughout), the share of loop steps with a
         contact touching, and the milliseconds the planned-distance bids of every robot on 7
-        tasks take (:func:`_bids_ms`).
+        tasks take (:func:`_bids_ms`). If ``allocate`` keeps ``timings_`` (``bids_s``,
+        ``auction_s``, ``rounds``), the timed rounds' ``round_bids_ms`` and
+        ``round_auction_ms``; if the planner built its distance field, :func:`field_report`.
     """
     rng = np.random.default_rng(0) if rng is None else rng
     out = {}
@@ -148,7 +113,9 @@ def bench_sim(
         warm_s = 2.0 if allocator is None else ROUND_S + 2.0  # first paths, distance fields
         _run(world, min(warm_s, sim_s), rng, allocate)
         touching0 = world.contacts.steps_touching
+        counts0 = dict(getattr(allocate, "timings_", {}))
         steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
+        counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
         bare = _bare(world, max(60, steps // 4))
         free = sim.contacts.FREE_ITERATIONS
@@ -167,7 +134,62 @@ def bench_sim(
             "contact_share": share,
             "bids_ms": bids_ms,
         }
+        if counts.get("rounds"):
+            rounds = counts["rounds"]
+            out[str(n)]["rounds"] = rounds
+            out[str(n)]["round_bids_ms"] = 1e3 * counts["bids_s"] / rounds
+            out[str(n)]["round_auction_ms"] = 1e3 * counts["auction_s"] / rounds
+        if world.planner.field_ is not None:
+            out[str(n)].update(field_report(world.planner, world.poses()[0], rng))
     return out
+
+
+def field_report(planner, xy: np.ndarray, rng: np.random.Generator, repeat: int = 5) -> dict:
+    """What the planner's distance field cost and what it buys, for robots at ``xy``.
+
+    Returns:
+        ``field_build_s`` (and its ``field_fields_s``, ``field_raster_s``, ``field_refine_s``
+        parts), ``field_mib`` (held), ``field_mixed_share`` (cell-site pairs left to an exact
+        test); best of ``repeat`` ms of ``GridPlanner.distances`` for every robot to all the
+        field's sites (``dist_all_ms``) and to 50 of them (``dist_50_ms``), numpy straight lines
+        for the same (``straight_all_ms``, ``straight_50_ms``); and the largest difference
+        (m) from the planner's exact query over 50 robots x all sites (``field_max_err_m``).
+    """
+    field = planner.field()
+    sites = field.sites
+    some = sites[np.sort(rng.choice(len(sites), size=min(50, len(sites)), replace=False))]
+    z = xy @ np.array([1.0, 1j])
+
+    def best(fn) -> float:
+        times = []
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return 1e3 * min(times)
+
+    def straight(pts):
+        zs = pts @ np.array([1.0, 1j])
+        return lambda: np.abs(z[:, None] - zs[None, :])
+
+    sample = xy[np.sort(rng.choice(len(xy), size=min(50, len(xy)), replace=False))]
+    fast = field.distances(sample, field.columns(sites))
+    exact = planner.exact_distances(sample, sites)
+    both = np.isfinite(exact) & np.isfinite(fast)
+    err = np.abs(fast - exact)[both].max(initial=0.0)
+    if (np.isfinite(exact) != np.isfinite(fast)).any():
+        err = np.inf
+    return {
+        "field_build_s": field.build_s_,
+        **{f"field_{k}": v for k, v in field.timings_.items()},
+        "field_mib": field.nbytes / 2**20,
+        "field_mixed_share": float((field.table_ >= field.mixed_code_).mean()),
+        "dist_all_ms": best(lambda: planner.distances(xy, sites)),
+        "dist_50_ms": best(lambda: planner.distances(xy, some)),
+        "straight_all_ms": best(straight(sites)),
+        "straight_50_ms": best(straight(some)),
+        "field_max_err_m": float(err),
+    }
 
 
 def _bids_ms(world: PymunkWorld, rng: np.random.Generator, tasks: int = 7) -> float:

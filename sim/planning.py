@@ -10,6 +10,12 @@ straight line first; only if it is blocked it tests the vertices in order of the
 |p - u| + D(u), a few at a time, and the first visible one gives the exact geodesic. In open space
 the planned distance *is* the straight line, around obstacles it is never shorter. An occupancy
 grid at ``grid_res_m`` is kept for rendering and debugging only.
+
+A fleet bids on the scenario's task sites every round: from ``FIELD_MIN_ROBOTS`` robots on,
+``distances`` looks those sites up in a distance field (``sim.distfield``: per cell and site the
+vertex, or the site itself, that the query above would find), built once on first use and
+shared by the planners of one process. Smaller calls, and points that are not task sites, take
+the query above, so small scenarios never build a field and keep their results bit for bit.
 """
 
 from __future__ import annotations
@@ -19,12 +25,14 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import shortest_path
 
 from sim.buckets import BoxBuckets, typical_size
+from sim.distfield import SHARED, DistanceField
 from sim.scenario import SpatialSpec
 
 _TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
 _SNAP_M = 1e-6  # how far past a boundary a point pushed out of an obstacle lands
 _CHUNK = 1 << 20  # (pair, edge) entries per vectorised visibility chunk
 _FIRST_BATCH = 8  # vertices tested per query in the first round (then 4x more each round)
+FIELD_MIN_ROBOTS = 256  # distances for this many positions or more come from the field
 
 
 def halfplanes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -82,10 +90,21 @@ class GridPlanner:
     def __init__(self, spatial: SpatialSpec) -> None:
         self.spatial = spatial
         self.inflate_m = spatial.drive.radius_m + spatial.clearance_m
+        self.tol_m = _TOL_M
         lo = self.inflate_m
         self.lo_ = np.array([lo, lo])
         self.hi_ = np.array([spatial.width_m - lo, spatial.height_m - lo])
-        polys = [inflate(np.asarray(p, dtype=float), self.inflate_m) for p in spatial.obstacles]
+        self.box_ = (*(self.lo_ - _TOL_M).tolist(), *(self.hi_ + _TOL_M).tolist())
+        self.set_obstacles(spatial.obstacles)
+
+    def set_obstacles(self, obstacles) -> None:
+        """Plan around these convex polygons (m, counter-clockwise) from now on, instead of
+        the scenario's; every cached distance (goal fields, the fleet's distance field) is
+        dropped with the old ones."""
+        self.obstacles = tuple(
+            tuple(map(tuple, np.asarray(p, dtype=float).tolist())) for p in obstacles
+        )
+        polys = [inflate(np.asarray(p, dtype=float), self.inflate_m) for p in self.obstacles]
         self.polygons_ = polys
         n_edges = max((len(p) for p in polys), default=1)
         self.normals_ = np.zeros((len(polys), n_edges, 2))
@@ -97,7 +116,6 @@ class GridPlanner:
             self.real_[k, : len(p)] = True
         self.bb_lo_ = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
         self.bb_hi_ = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
-        self.box_ = (*(self.lo_ - _TOL_M).tolist(), *(self.hi_ + _TOL_M).tolist())
         self.scalar_ = []  # the same as Python floats, for single queries (blocked_one, free_one)
         for k, p in enumerate(polys):
             normal, offset = halfplanes(p)
@@ -113,6 +131,7 @@ class GridPlanner:
         self._build_graph()
         self._fields: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
         self._occupancy: np.ndarray | None = None
+        self.field_: DistanceField | None = None
 
     def _build_graph(self) -> None:
         """All-pairs geodesics between the vertices: ``apsp_`` (V, V) m, ``pred_`` (V, V)."""
@@ -173,17 +192,50 @@ class GridPlanner:
             if not si.size:
                 continue
             si += s0
-            n = self.normals_[pi]
-            start = a[si]
-            num = self.offsets_[pi] - _TOL_M - np.einsum("kej,kj->ke", n, start)
-            den = np.einsum("kej,kj->ke", n, b[si] - start)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = num / den
-            t_hi = np.where(den > 0, ratio, np.inf).min(axis=1, initial=1.0)
-            t_lo = np.where(den < 0, ratio, -np.inf).max(axis=1, initial=0.0)
-            never = ((den == 0) & (num <= 0)).any(axis=1)
-            out[si[(t_lo < t_hi) & ~never]] = True
+            out[si[self._clips(a[si], b[si], pi)]] = True
         return out
+
+    def blocked_by(self, a: np.ndarray, b: np.ndarray, obstacle: np.ndarray) -> np.ndarray:
+        """:meth:`blocked` where only ``obstacle[s]`` (an index) can block segment s: the same
+        test, one edge at a time over all segments (as :meth:`blocked_one` does per segment),
+        which is quicker than :meth:`blocked`'s per-pair reductions for a few candidates."""
+        a = np.asarray(a, dtype=float).reshape(-1, 2)
+        b = np.asarray(b, dtype=float).reshape(-1, 2)
+        k = np.asarray(obstacle)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        bb_lo, bb_hi = self.bb_lo_[k], self.bb_hi_[k]
+        meet = (lo[:, 0] < bb_hi[:, 0]) & (lo[:, 1] < bb_hi[:, 1])
+        meet &= (hi[:, 0] > bb_lo[:, 0]) & (hi[:, 1] > bb_lo[:, 1])
+        idx = np.flatnonzero(meet)
+        k = k[idx]
+        ax, ay = a[idx, 0], a[idx, 1]
+        dx, dy = b[idx, 0] - ax, b[idx, 1] - ay
+        t_lo, t_hi = np.zeros(len(idx)), np.ones(len(idx))
+        cut = np.ones(len(idx), dtype=bool)
+        for e in range(self.normals_.shape[1]):
+            nx, ny = self.normals_[k, e, 0], self.normals_[k, e, 1]
+            num = self.offsets_[k, e] - _TOL_M - (nx * ax + ny * ay)
+            den = nx * dx + ny * dy
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = num / den
+            t_hi = np.where(den > 0, np.minimum(t_hi, t), t_hi)
+            t_lo = np.where(den < 0, np.maximum(t_lo, t), t_lo)
+            cut &= ~((den == 0) & (num <= 0))  # parallel to this edge and outside it
+        out = np.zeros(len(a), dtype=bool)
+        out[idx] = cut & (t_lo < t_hi)
+        return out
+
+    def _clips(self, a: np.ndarray, b: np.ndarray, poly: np.ndarray) -> np.ndarray:
+        """Cyrus-Beck: True where segment a[s] -> b[s] enters the interior of ``poly[s]``."""
+        n = self.normals_[poly]
+        num = self.offsets_[poly] - _TOL_M - np.einsum("kej,kj->ke", n, a)
+        den = np.einsum("kej,kj->ke", n, b - a)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = num / den
+        t_hi = np.where(den > 0, ratio, np.inf).min(axis=1, initial=1.0)
+        t_lo = np.where(den < 0, ratio, -np.inf).max(axis=1, initial=0.0)
+        never = ((den == 0) & (num <= 0)).any(axis=1)
+        return (t_lo < t_hi) & ~never
 
     def blocked_one(self, ax: float, ay: float, bx: float, by: float) -> bool:
         """:meth:`blocked` for one segment (ax, ay) -> (bx, by), in plain Python."""
@@ -246,15 +298,18 @@ class GridPlanner:
                 pts[k] = p
         return pts
 
-    def _field(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def goal_field(self, goal: np.ndarray, hidden=None) -> tuple[np.ndarray, np.ndarray]:
         """Geodesic distance (V,) from each vertex to ``goal`` and the last vertex before the goal
-        on that path (-1 if unreachable); cached per goal point."""
+        on that path (-1 if unreachable); cached per goal point. ``hidden``: (V,) the result of
+        :meth:`blocked` from the goal to each vertex, if the caller has it already."""
         key = (float(goal[0]), float(goal[1]))
         hit = self._fields.get(key)
         if hit is not None:
             return hit
         v = self.vertices_
-        seen = np.flatnonzero(~self.blocked(np.broadcast_to(goal, v.shape), v))
+        if hidden is None:
+            hidden = self.blocked(np.broadcast_to(goal, v.shape), v)
+        seen = np.flatnonzero(~hidden)
         if seen.size:
             total = self.apsp_[:, seen] + np.linalg.norm(v[seen] - goal, axis=1)[None]
             k = np.argmin(total, axis=1)
@@ -301,7 +356,57 @@ class GridPlanner:
 
     def distances(self, positions: np.ndarray, sites: np.ndarray) -> np.ndarray:
         """Planned path length (m) from each position (m, 2) to each site (k, 2); ``inf`` where
-        no path exists. Never shorter than the straight line; equal to it in open space."""
+        no path exists. Never shorter than the straight line; equal to it in open space.
+
+        From ``FIELD_MIN_ROBOTS`` positions on, the scenario's task sites are looked up in the
+        fleet's distance field (:meth:`field`, built on first use); other sites, and smaller
+        calls, are computed here directly (:meth:`exact_distances`). Both give the length of
+        the path :meth:`path` plans, up to rounding."""
+        pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+        sites = np.asarray(sites, dtype=float).reshape(-1, 2)
+        if len(pos) < FIELD_MIN_ROBOTS or not len(sites) or not self.site_points().size:
+            return self.exact_distances(pos, sites)
+        field = self.field()
+        cols = field.columns(sites)
+        known = cols >= 0
+        uniq, inv = np.unique(cols[known], return_inverse=True)  # a batch may repeat sites
+        if known.all():
+            if len(uniq) == len(cols):
+                return field.distances(pos, cols)
+            return field.distances(pos, uniq)[:, inv]
+        out = np.empty((len(pos), len(sites)))
+        out[:, known] = field.distances(pos, uniq)[:, inv]
+        out[:, ~known] = self.exact_distances(pos, sites[~known])
+        return out
+
+    def site_points(self) -> np.ndarray:
+        """(k, 2) every task site of the scenario (all types), as given."""
+        pts = [p for sites in self.spatial.sites for p in sites]
+        return np.array(pts, dtype=float).reshape(-1, 2)
+
+    def field(self) -> DistanceField:
+        """The distance field of this arena (current obstacles) and the scenario's task sites:
+        built on first use, shared with every planner of this process that has the same arena
+        (``sim.distfield.SHARED``)."""
+        if self.field_ is None:
+            sites = self.site_points()
+            self.field_ = SHARED.get(self.field_key(), lambda: DistanceField.build(self, sites))
+        return self.field_
+
+    def field_key(self) -> tuple:
+        """What the distance field depends on: arena, inflation, current obstacles, sites."""
+        sp = self.spatial
+        return (
+            sp.width_m,
+            sp.height_m,
+            self.inflate_m,
+            self.obstacles,
+            self.site_points().tobytes(),
+        )
+
+    def exact_distances(self, positions: np.ndarray, sites: np.ndarray) -> np.ndarray:
+        """:meth:`distances` computed from scratch: the straight line where it is free, else
+        the cheapest vertex the position sees plus that vertex's geodesic to the site."""
         pos = np.asarray(positions, dtype=float).reshape(-1, 2)
         sites = np.asarray(sites, dtype=float).reshape(-1, 2)
         if not len(sites) or not len(pos):
@@ -318,7 +423,7 @@ class GridPlanner:
         best = direct.reshape(len(pos), len(goals))
         r, g = np.nonzero(~np.isfinite(best))
         if r.size and len(self.vertices_):
-            fields = np.array([self._field(goal)[0] for goal in goals])
+            fields = np.array([self.goal_field(goal)[0] for goal in goals])
             to_vertex = np.linalg.norm(snapped[:, None] - self.vertices_[None], axis=2)
             best[r, g] = self._first_visible(snapped, r, to_vertex[r] + fields[g])[0]
         best = best + extra[:, None] + goal_extra[None]
@@ -338,7 +443,7 @@ class GridPlanner:
         if self.blocked_one(sx, sy, *g.tolist()):
             if not len(self.vertices_):
                 return np.zeros((0, 2))
-            dist, last = self._field(g)
+            dist, last = self.goal_field(g)
             lower = np.linalg.norm(self.vertices_ - s, axis=1) + dist
             u = -1  # the first vertex visible from s, in order of the cost through it
             for k in np.argsort(lower).tolist():

@@ -146,6 +146,7 @@ class PymunkWorld:
             self.controller,
             sp.arrive_tol_m,
             self.reach_m_,
+            sp.avoidance == "orca",
         )
         self.control = kind(parts)
 
@@ -232,8 +233,20 @@ class PymunkWorld:
         return out
 
     def summary(self, record=None) -> dict:
-        """JSON-able physics statistics of the run so far."""
+        """JSON-able physics statistics of the run so far: contacts begun robot-robot and
+        robot-wall, each a touch (closing speed below ``sim.contacts.IMPACT_MPS``) or an impact,
+        also per robot-hour (robots x simulated hours)."""
+        c = self.contacts
+        hours = max(self.scenario.n_robots * self.time_s / 3600.0, 1e-12)
+        kinds = {
+            "robot_touch": c.robot_hits - c.robot_impacts,
+            "robot_impact": c.robot_impacts,
+            "wall_touch": c.wall_hits - c.wall_impacts,
+            "wall_impact": c.wall_impacts,
+        }
         return {
+            **{f"contacts_{k}": n for k, n in kinds.items()},
+            **{f"contacts_{k}_per_robot_h": n / hours for k, n in kinds.items()},
             "sim_time_s": self.time_s,
             "physics_steps": self.steps_,
             "distance_driven_m": float(self.fleet.moved_m.sum()),

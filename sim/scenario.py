@@ -18,6 +18,7 @@ class RobotSpec:
     name: str
     capabilities: tuple[int, ...]  # indices into Scenario.task_types
     start_xy: tuple[float, float] | None = None  # m
+    heading_deg: float = 0.0  # initial heading from +x, counter-clockwise (spatial worlds)
 
 
 @dataclass(frozen=True, slots=True)

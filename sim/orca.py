@@ -240,16 +240,23 @@ def avoid(
     )
     normal = np.where(mask, normal, 1.0)
     offset = np.where(mask, offset, -_BIG)
-    on, oc = obstacle_plane(to_obstacle(zi), r_eff, 1.0 / TAU_OBSTACLE_S)
-    normal = np.concatenate([normal, on[:, None]], axis=1)
-    offset = np.concatenate([offset, oc[:, None]], axis=1)
     hi = h[rows]
     plan = v_want * hi
     bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
     if not bind.any():
         return None
     normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
-    pref = pref * KEEP_RIGHT
+    import os
+
+    mode = os.environ.get("BIAS", "full")
+    if mode == "full":
+        pref = pref * KEEP_RIGHT
+    elif mode == "slow":
+        slow = 1.0 - np.minimum(np.abs(vel[rows[bind]]) / v_max, 1.0)
+        pref = pref * np.exp(-1j * np.radians(RIGHT_BIAS_DEG) * slow)
+    on, oc = obstacle_plane(to_obstacle(zi[bind]), r_eff, 1.0 / TAU_OBSTACLE_S)
+    normal = np.concatenate([normal, on[:, None]], axis=1)
+    offset = np.concatenate([offset, oc[:, None]], axis=1)
     u = solve(normal, offset, pref, v_max)
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)

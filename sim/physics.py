@@ -137,6 +137,7 @@ class PymunkWorld:
             bodies=self.motors.bodies,
             rng=rng,
             keep_lists=kind.keeps_lists,
+            clear_sites=sp.avoidance == "orca",
         )
         parts = ControlParts(
             self.fleet,

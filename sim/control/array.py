@@ -150,7 +150,11 @@ class ArrayControl:
         zone = tol + 2 * reach
         there = go & (gap <= zone)
         if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
-            queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]
+            if p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
+                p.jobs.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)
+                queue = np.zeros(0, dtype=int)
+            else:
+                queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]
             there &= gap <= tol
             if queue.size:  # touching a robot that stands nearer the site: the site is taken,
                 # and working beside the robots already there counts as arrived

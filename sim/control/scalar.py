@@ -227,6 +227,9 @@ class ScalarControl:
                     arrived.append(j)
                 elif gap <= zone:
                     queue.append((j, gap))
+        if queue and p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
+            p.jobs.take_slots([j for j, _ in queue], np.array(zs), t)
+            queue = []
         if queue:  # touching a robot that stands nearer the site: the site is taken,
             # and working beside the robots already there counts as arrived
             near, state, yielding = (

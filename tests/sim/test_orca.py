@@ -61,10 +61,16 @@ def circle(n: int, radius_m: float = 5.0, centre=(7.0, 7.0)):
 
 @pytest.mark.parametrize("control", ["scalar", "array"])
 @pytest.mark.parametrize(("n", "bound_s"), [(10, 17.8), (20, 23.1)])
-def test_antipodal_circle_swap_beats_the_reference_without_a_contact(n, bound_s, control):
+def test_antipodal_circle_swap_beats_the_reference_without_a_contact(
+    n, bound_s, control, report_line
+):
     starts, goals = circle(n)
     world = swap_world(starts, goals, (14.0, 14.0), control)
     t = time_to_all_arrive(world, 60.0)
+    report_line(
+        f"ORCA antipodal swap, {n} robots on a 5 m circle, {control} control: across in "
+        f"{t:.1f} s (IR-SIM RVO {bound_s} s), robot contacts {world.collisions_robot_}"
+    )
     assert t <= bound_s, f"{n} robots took {t} s"
     assert world.collisions_robot_ == 0
     assert world.collisions_wall_ == 0
@@ -147,3 +153,33 @@ def test_forward_speed_keeps_the_driven_velocity_in_every_half_plane():
     offset = np.array([[-0.4, -0.2]])
     v = forward_speed(normal, offset, np.array([1.0 + 0j]), np.array([1.5]), 1.5)
     assert v[0] == pytest.approx(0.4)
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_a_robot_passes_a_row_of_parked_robots_without_contact(control):
+    """Ten robots stand at work 0.6 m beside a 10 m lane (0.1 m of air to a robot on the lane
+    centre line); one drives past them: 10 m at 1 m/s, the bound leaves a third more."""
+    parked = [(3.0 + 0.7 * k, 3.6) for k in range(10)]
+    starts = [(1.0, 3.0), *parked]
+    goals = [(11.0, 3.0), *parked]
+    world = swap_world(starts, goals, (12.0, 6.0), control)
+    t = time_to_all_arrive(world, 60.0)
+    assert t <= 13.5
+    assert world.collisions_robot_ == 0
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_robots_sent_to_one_taken_site_work_in_its_slots_within_the_tolerance(control):
+    """Three robots, one site: the first works on the service point, the others in service
+    slots, each within ``arrive_tol_m`` of where it works, none touching another."""
+    site = (7.0, 3.0)
+    starts = [(2.0, 3.0), (2.0, 5.0), (2.0, 1.0)]
+    world = swap_world(starts, [site] * 3, (12.0, 6.0), control)
+    sp = world.spatial
+    t = time_to_all_arrive(world, 40.0)
+    assert t <= 20.0
+    xy = world.poses()[0] @ np.array([1.0, 1j])
+    assert np.abs(xy - world.fleet.site).max() <= sp.arrive_tol_m
+    assert np.abs(xy - complex(*site)).min() <= sp.arrive_tol_m  # one on the service point
+    assert world.collisions_robot_ == 0
+    assert world.jobs.failures == 0

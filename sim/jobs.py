@@ -26,6 +26,7 @@ YIELD_TRIGGER_M = 0.3  # a driving robot this close (beyond contact) to an idle 
 YIELD_STEP_M = 1.0  # how far an idle robot steps aside
 YIELD_TIMEOUT_S = 6.0
 DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
+DEADLOCK_M = 1.5  # driving robots this close, one of them stuck: a deadlock (avoidance on)
 SLOTS = 6  # service slots on a ring around each service point (collision avoidance on)
 SLOT_GAP_M = 0.15  # a slot's centre keeps this much air to the robot on the service point
 PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
@@ -86,6 +87,7 @@ class Jobs:
         self.keep_lists = keep_lists
         self.clear_sites = clear_sites
         self.slotted = np.zeros(len(fleet.state), dtype=bool)  # working toward a service slot
+        self.origin = fleet.site.copy()  # where each robot was given its task (x + iy), m
         self.done: list[Completion] = []
         self.failures = 0
 
@@ -114,6 +116,7 @@ class Jobs:
             f.backoff_until_s[j] = -np.inf
             f.yielding[j] = False
             self.slotted[j] = False
+            self.origin[j] = complex(*xy_m[j])
             self.follower.clear(j)
             path = self.planner.path(xy_m[j], site)
             if not len(path):
@@ -238,6 +241,8 @@ class Jobs:
             if taken.any():  # its site is taken by a robot at work: wait for it to step clear
                 f.t_progress_s[j] = float(f.work_end_s[taken].min())
                 return
+            if self.give_way(j, t):
+                return
         f.recoveries[j] += 1
         f.stuck_left_m[j] = f.left_m[j]  # where it got stuck (path left to drive)
         self.schedule.recovering = True
@@ -309,6 +314,35 @@ class Jobs:
                 f.yielding[b], f.yield_until_s[b] = True, t + YIELD_TIMEOUT_S
         self.follower.set_paths(rows, paths)
         self.refresh()
+
+    def give_way(self, j: int, t: float) -> bool:
+        """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot
+        j and the driving robots within ``DEADLOCK_M``, the one with the highest index goes
+        back to ``DEADLOCK_M`` beyond where it was given its task (or there, if that is not
+        free) and only then on to its site, so the others get through; the others wait.
+        True if j gave way or waits."""
+        f, z = self.fleet, self.fleet.last_z_m
+        close = (f.state == DRIVING) & (np.abs(z - z[j]) < DEADLOCK_M)
+        close[j] = False
+        if not close.any():
+            return False
+        if j < int(close.nonzero()[0].max()):
+            f.t_progress_s[j] = t  # the other one gives way: wait for it
+            return True
+        away = self.origin[j] - z[j]  # back past where it started, by DEADLOCK_M
+        refuge = self.origin[j] + DEADLOCK_M * away / max(abs(away), 1e-9)
+        if not self.planner.free(np.array([[refuge.real, refuge.imag]]))[0]:
+            refuge = self.origin[j]
+        xy, spot = (z[j].real, z[j].imag), (refuge.real, refuge.imag)
+        back = self.planner.path(xy, spot)
+        on = self.planner.path(spot, (f.site[j].real, f.site[j].imag))
+        if not (len(back) and len(on)) or abs(z[j] - refuge) < 0.5 * DEADLOCK_M:
+            return False
+        f.recoveries[j] += 1
+        self.follower.set_path(j, np.concatenate([back, on[1:]]))
+        f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.refresh()
+        return True
 
     def take_slots(self, rows: list[int], z: np.ndarray, t: float) -> None:
         """Robots ``rows`` are near their site and not there: where a standing robot takes the

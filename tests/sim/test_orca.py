@@ -156,6 +156,28 @@ def test_forward_speed_keeps_the_driven_velocity_in_every_half_plane():
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])
+def test_two_robots_swap_ends_of_a_corridor_one_and_a_half_diameters_wide(control):
+    """A 4 m corridor 0.75 m wide between two rooms; two robots swap ends. They meet inside,
+    where neither can pass: after ``stuck_timeout_s`` (20 s) without progress the deadlock is
+    seen and one robot backs out past where it started while the other comes through. Bound,
+    each drive at 1 m/s taken twice over for turns and braking: meeting (at most the 6 m
+    between the starts, 12 s), the wait, backing out and across (2.3 m + 7.5 m, 20 s):
+    stuck_timeout_s + 32 s. No impact (a touch of a wall is allowed)."""
+    half = 0.375
+    walls = (
+        ((4.0, 0.0), (8.0, 0.0), (8.0, 3.0 - half), (4.0, 3.0 - half)),
+        ((4.0, 3.0 + half), (8.0, 3.0 + half), (8.0, 6.0), (4.0, 6.0)),
+    )
+    starts, goals = [(3.5, 3.0), (8.5, 3.0)], [(9.5, 3.0), (2.5, 3.0)]
+    world = swap_world(starts, goals, (12.0, 6.0), control, obstacles=walls)
+    t = time_to_all_arrive(world, 120.0)
+    assert t <= world.spatial.stuck_timeout_s + 32.0
+    assert world.jobs.failures == 0
+    assert world.collisions_robot_ == 0
+    assert world.contacts.robot_impacts == world.contacts.wall_impacts == 0
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
 def test_a_robot_passes_a_row_of_parked_robots_without_contact(control):
     """Ten robots stand at work 0.6 m beside a 10 m lane (0.1 m of air to a robot on the lane
     centre line); one drives past them: 10 m at 1 m/s, the bound leaves a third more."""

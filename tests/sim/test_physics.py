@@ -106,20 +106,27 @@ def test_head_on_robots_never_overlap_and_both_arrive(control):
     assert world.contacts_max_overlap_m < 0.01
 
 
-def test_single_lane_standoff_ends_in_bounded_time_with_every_task_reported(control):
+@pytest.mark.parametrize("avoidance", ["none", "orca"])
+def test_single_lane_standoff_ends_in_bounded_time_with_every_task_reported(control, avoidance):
+    """Two robots swap ends of a closed lane they cannot pass each other in. Without collision
+    avoidance both get stuck and fail; with it one backs off past where it started (deadlock
+    resolution), the other gets through and works at its site, which then blocks the first
+    for good: at most one task can be done, and every failure is a stuck robot."""
     lane = [  # 0.9 m wide: two robots (0.5 m) cannot pass each other
         ((0.0, 0.0), (20.0, 0.0), (20.0, 4.55), (0.0, 4.55)),
         ((0.0, 5.45), (20.0, 5.45), (20.0, 10.0), (0.0, 10.0)),
     ]
     starts = [(2.0, 5.0), (18.0, 5.0)]
     world = PymunkWorld(
-        scenario(starts, lane, stuck_timeout_s=3.0, max_recoveries=2), control=control
+        scenario(starts, lane, stuck_timeout_s=3.0, max_recoveries=2, avoidance=avoidance),
+        control=control,
     )
     send(world, [0, 1], starts[::-1])
     done = world.drain()
     assert sorted(c.task_id for c in done) == [0, 1]
     assert world.time_s < 120.0
-    assert all(not c.ok and c.reason.startswith("stuck") for c in done)
+    assert sum(c.ok for c in done) <= 1
+    assert all(c.ok or c.reason.startswith("stuck") for c in done)
     assert (world.snapshot().free).all()
     assert world.contacts_max_overlap_m < 0.01  # even squeezed between robot and wall
 

@@ -80,7 +80,7 @@ def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
 
     from learning.episode import run_protocol
     from scenarios.protocol import RunSpec, build_run
-    from sim.bench_sim import _bare
+    from sim.bench_sim import _bare, timed_avoidance
     from sim.recording import TrajectoryRecorder
 
     part = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
@@ -90,7 +90,8 @@ def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
     world.recorder = recorder
     steps0 = world.steps_
     t0 = time.perf_counter()
-    run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
+    with timed_avoidance() as avoid_s:
+        run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
     wall = time.perf_counter() - t0
     steps = world.steps_ - steps0
     bare = _bare(world, max(60, steps // 4))
@@ -101,6 +102,8 @@ def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
         "bare_steps_per_s": 1.0 / bare,
         "sim_s": steps * world.dt_s,
         "wall_s": wall,
+        "avoid_share": avoid_s[0] / wall,
+        "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
     }
 
 
@@ -141,7 +144,8 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
                 )
             say(
                 f"  {n:>5} robots: {r['steps_per_s']:>9,.0f} steps/s  {r['rtf']:>7,.0f}x real time "
-                f" loop/bare = {r['bare_ratio']:.2f}  ({what})"
+                f" loop/bare = {r['bare_ratio']:.2f}  avoidance/bare = {r['avoid_bare_ratio']:.2f}"
+                f" ({r['avoid_share']:.0%} of the loop)  ({what})"
             )
             if "field_build_s" in r:
                 say(

@@ -131,7 +131,7 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
         where = f"robots[{j}]"
         if not isinstance(rd, dict):
             v.fail(where, "must be a table")
-        v.keys(rd, where, {"name", "capabilities", "cost", "start"})
+        v.keys(rd, where, {"name", "capabilities", "cost", "start", "heading_deg"})
         rname = v.string(rd, f"{where}.name")
         if rname in seen:
             v.fail(f"{where}.name", f"duplicate robot name {rname!r}")
@@ -154,7 +154,12 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
         start = None
         if "start" in rd:
             start = tuple(v.num_list(rd, f"{where}.start", 2))
-        robots.append(RobotSpec(rname, tuple(sorted(types.index(c) for c in caps)), start))
+        heading = 0.0
+        if "heading_deg" in rd:
+            heading = v.number(rd, "heading_deg", f"{where}.heading_deg", lo=-360.0)
+            v.check(heading <= 360.0, f"{where}.heading_deg", "must be within [-360, 360] degrees")
+        capable = tuple(sorted(types.index(c) for c in caps))
+        robots.append(RobotSpec(rname, capable, start, float(heading)))
         cost_rows.append(tuple(row))
     covered = {i for r in robots for i in r.capabilities}
     for i, t in enumerate(types):

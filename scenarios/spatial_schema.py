@@ -26,14 +26,18 @@ from dataclasses import fields
 import numpy as np
 from scipy.spatial import cKDTree
 
+from sim.orca import AVOIDANCE
 from sim.planning import GridPlanner, polygon_signed_distance
 from sim.scenario import DriveSpec, RobotSpec, SpatialSpec
 
-_NUMBERS = {f.name: f.default for f in fields(SpatialSpec) if f.name not in {"obstacles", "sites"}}
+_WORDS = {"avoidance": AVOIDANCE}  # string keys and their allowed values
+_NUMBERS = {
+    f.name: f.default for f in fields(SpatialSpec) if f.name not in {"obstacles", "sites", *_WORDS}
+}
 _NUMBERS.pop("width_m")
 _NUMBERS.pop("height_m")
 _NUMBERS.pop("drive")
-_KEYS = {"width_m", "height_m", "obstacles", "sites", "drive", *_NUMBERS}
+_KEYS = {"width_m", "height_m", "obstacles", "sites", "drive", *_NUMBERS, *_WORDS}
 _POSITIVE = {"dt_s", "control_hz", "arrive_tol_m", "grid_res_m", "stuck_timeout_s"}  # > 0
 MAX_GRID_CELLS = 4_000_000
 MAX_SITES = 10_000
@@ -66,6 +70,13 @@ def parse_spatial(v, doc: dict, types: list[str], robots: list[RobotSpec]) -> Sp
                 lo_open=key in _POSITIVE,
                 integer=isinstance(default, int),
             )
+    for key, allowed in _WORDS.items():
+        if key in table:
+            word = table[key]
+            if word not in allowed:
+                choices = " or ".join(f'"{a}"' for a in allowed)
+                v.fail(f"spatial.{key}", f"must be {choices}; got {word!r}")
+            values[key] = word
     spec = SpatialSpec(width, height, (), (), **values)
     v.check(
         spec.dt_s <= 0.05, "spatial.dt_s", f"{spec.dt_s} s is too coarse for contacts (<= 0.05)"

@@ -18,6 +18,7 @@ share of the loop's physics steps that ended with a contact touching.
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -83,14 +84,16 @@ def bench_sim(
 
     Returns:
         ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s",
-        "bare10_steps_per_s", "contact_share", "bids_ms", ...}}``: physics steps of the full
-        loop per wall second, simulated / wall seconds, full-loop time per step over bare
-        ``space.step`` time per step, the bare loop's steps per second (as the world sets the
-        space, and with ten solver iterations throughout), the share of loop steps with a
-        contact touching, and the milliseconds the planned-distance bids of every robot on 7
-        tasks take (:func:`_bids_ms`). If ``allocate`` keeps ``timings_`` (``bids_s``,
-        ``auction_s``, ``rounds``), the timed rounds' ``round_bids_ms`` and
-        ``round_auction_ms``; if the planner built its distance field, :func:`field_report`.
+        "bare10_steps_per_s", "contact_share", "bids_ms", "avoid_share", "avoid_bare_ratio",
+        ...}}``: physics steps of the full loop per wall second, simulated / wall seconds,
+        full-loop time per step over bare ``space.step`` time per step, the bare loop's steps
+        per second (as the world sets the space, and with ten solver iterations throughout),
+        the share of loop steps with a contact touching, and the milliseconds the
+        planned-distance bids of every robot on 7 tasks take (:func:`_bids_ms`); the share of
+        the loop's time spent in collision avoidance (``sim.orca``) and that time per step
+        over the bare step. If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
+        ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; if the
+        planner built its distance field, :func:`field_report`.
     """
     rng = np.random.default_rng(0) if rng is None else rng
     out = {}
@@ -114,7 +117,8 @@ def bench_sim(
         _run(world, min(warm_s, sim_s), rng, allocate)
         touching0 = world.contacts.steps_touching
         counts0 = dict(getattr(allocate, "timings_", {}))
-        steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
+        with timed_avoidance() as avoid_s:
+            steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
         bare = _bare(world, max(60, steps // 4))
@@ -133,6 +137,8 @@ def bench_sim(
             "bare10_steps_per_s": 1.0 / bare10,
             "contact_share": share,
             "bids_ms": bids_ms,
+            "avoid_share": avoid_s[0] / wall,
+            "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
         }
         if counts.get("rounds"):
             rounds = counts["rounds"]
@@ -218,3 +224,27 @@ def _bare(world: PymunkWorld, n: int) -> float:
 if __name__ == "__main__":
     for size, row in bench_sim().items():
         print(size, {k: round(v, 2) for k, v in row.items()})
+
+
+@contextlib.contextmanager
+def timed_avoidance():
+    """Time every collision-avoidance call of both control periods while the block runs
+    (``sim.control.avoidance.steer_clear``, as the two periods hold it); yields a one-item
+    list whose entry is the wall seconds spent in it so far."""
+    import sim.control.array as array_period
+    import sim.control.scalar as scalar_period
+
+    inner, spent = array_period.steer_clear, [0.0]
+
+    def timed(*args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            spent[0] += time.perf_counter() - t0
+
+    array_period.steer_clear = scalar_period.steer_clear = timed
+    try:
+        yield spent
+    finally:
+        array_period.steer_clear = scalar_period.steer_clear = inner

@@ -55,6 +55,15 @@ def steer_speeds(cos_err, gap_m, corner2, align_gain, align_bias, brake2_mps2, s
     return cos_err * align_gain + align_bias, sqrt(gap_m * brake2_mps2 + corner2)
 
 
+def preferred_velocity(aim, gap_m, corner2, brake_mps2, v_max_mps, sqrt, minimum):
+    """The velocity a robot would like (x + iy, m/s), the preferred velocity of ORCA: toward
+    its aim point ``aim`` (x + iy from its centre) at the speed from which it still brakes at
+    ``brake_mps2`` to the corner speed within ``gap_m`` (as ``steer_speeds``), at most
+    ``v_max_mps``; zero where ``aim`` is zero. ``sqrt``, ``minimum``: math's or numpy's."""
+    speed = minimum(sqrt(gap_m * (2.0 * brake_mps2) + corner2), v_max_mps)
+    return aim * (speed / (abs(aim) + 1e-12))
+
+
 def stopping_time_s(v_mps, react_s, inv2a):
     """Distance a robot at speed ``v_mps`` covers per m/s of it before it stands: the reaction
     time plus |v| / 2a (``inv2a`` = 1 / 2a), s. Times a closing speed, a stopping distance."""

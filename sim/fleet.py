@@ -85,8 +85,9 @@ class FleetState:
     nobody: tuple[np.ndarray, np.ndarray]
 
     @classmethod
-    def at_start(cls, starts_xy_m: np.ndarray) -> FleetState:
-        """Every robot idle and free at its start (x, y), facing +x, with nothing commanded."""
+    def at_start(cls, starts_xy_m: np.ndarray, headings_rad=None) -> FleetState:
+        """Every robot idle and free at its start (x, y), facing ``headings_rad`` (None: +x),
+        with nothing commanded."""
         m = len(starts_xy_m)
         site = np.asarray(starts_xy_m, dtype=float) @ np.array([1.0, 1j])
         return cls(
@@ -114,7 +115,7 @@ class FleetState:
             blocker=np.full(m, -1),
             near_m=np.full(m, np.inf),
             last_z_m=site.copy(),
-            last_th_rad=np.zeros(m),
+            last_th_rad=np.zeros(m) if headings_rad is None else np.array(headings_rad, float),
             moved_m=np.zeros(m),
             nobody=(np.full(m, -1), np.full(m, np.inf)),
         )

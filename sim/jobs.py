@@ -26,6 +26,9 @@ YIELD_TRIGGER_M = 0.3  # a driving robot this close (beyond contact) to an idle 
 YIELD_STEP_M = 1.0  # how far an idle robot steps aside
 YIELD_TIMEOUT_S = 6.0
 DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
+DEADLOCK_M = 1.5  # driving robots this close, one of them stuck: a deadlock (avoidance on)
+SLOTS = 6  # service slots on a ring around each service point (collision avoidance on)
+SLOT_GAP_M = 0.15  # a slot's centre keeps this much air to the robot on the service point
 PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
 
 
@@ -46,6 +49,11 @@ class Jobs:
         rng: the world's generator (back-off arcs).
         keep_lists: keep the state and the steering robots as Python lists in the schedule
             (the scalar control period reads them).
+        clear_sites: under collision avoidance robots never push: a robot that finished and
+            stands on the service point another robot comes for steps ``YIELD_STEP_M`` clear
+            of it, one at work there sends the newcomer to a service slot
+            (:meth:`take_slots`), and a robot whose site is taken by a robot at work waits for
+            that work to end instead of recovering.
 
     Attributes:
         done: completions not yet handed out by the world.
@@ -67,6 +75,7 @@ class Jobs:
         bodies: list,
         rng: np.random.Generator,
         keep_lists: bool,
+        clear_sites: bool = False,
     ) -> None:
         self.fleet, self.schedule, self.clock = fleet, schedule, clock
         self.follower, self.planner, self.controller = follower, planner, controller
@@ -76,6 +85,9 @@ class Jobs:
         self.bodies = bodies
         self.rng = rng
         self.keep_lists = keep_lists
+        self.clear_sites = clear_sites
+        self.slotted = np.zeros(len(fleet.state), dtype=bool)  # working toward a service slot
+        self.origin = fleet.site.copy()  # where each robot was given its task (x + iy), m
         self.done: list[Completion] = []
         self.failures = 0
 
@@ -103,6 +115,8 @@ class Jobs:
             f.stuck_left_m[j] = np.inf
             f.backoff_until_s[j] = -np.inf
             f.yielding[j] = False
+            self.slotted[j] = False
+            self.origin[j] = complex(*xy_m[j])
             self.follower.clear(j)
             path = self.planner.path(xy_m[j], site)
             if not len(path):
@@ -222,6 +236,13 @@ class Jobs:
             # boxed in by a robot at work that is nearly done: not stuck, wait for it
             f.t_progress_s[j] = f.work_end_s[b]
             return
+        if self.clear_sites:
+            taken = (f.state == WORKING) & (np.abs(z - f.site[j]) < 2.0 * self.controller.radius_m)
+            if taken.any():  # its site is taken by a robot at work: wait for it to step clear
+                f.t_progress_s[j] = float(f.work_end_s[taken].min())
+                return
+            if self.give_way(j, t):
+                return
         f.recoveries[j] += 1
         f.stuck_left_m[j] = f.left_m[j]  # where it got stuck (path left to drive)
         self.schedule.recovering = True
@@ -293,6 +314,91 @@ class Jobs:
                 f.yielding[b], f.yield_until_s[b] = True, t + YIELD_TIMEOUT_S
         self.follower.set_paths(rows, paths)
         self.refresh()
+
+    def give_way(self, j: int, t: float) -> bool:
+        """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot
+        j and the driving robots within ``DEADLOCK_M``, the one with the highest index goes
+        back to ``DEADLOCK_M`` beyond where it was given its task (or there, if that is not
+        free) and only then on to its site, so the others get through; the others wait.
+        True if j gave way or waits."""
+        f, z = self.fleet, self.fleet.last_z_m
+        close = (f.state == DRIVING) & (np.abs(z - z[j]) < DEADLOCK_M)
+        close[j] = False
+        if not close.any():
+            return False
+        if j < int(close.nonzero()[0].max()):
+            f.t_progress_s[j] = t  # the other one gives way: wait for it
+            return True
+        away = self.origin[j] - z[j]  # back past where it started, by DEADLOCK_M
+        refuge = self.origin[j] + DEADLOCK_M * away / max(abs(away), 1e-9)
+        if not self.planner.free(np.array([[refuge.real, refuge.imag]]))[0]:
+            refuge = self.origin[j]
+        xy, spot = (z[j].real, z[j].imag), (refuge.real, refuge.imag)
+        back = self.planner.path(xy, spot)
+        on = self.planner.path(spot, (f.site[j].real, f.site[j].imag))
+        if not (len(back) and len(on)) or abs(z[j] - refuge) < 0.5 * DEADLOCK_M:
+            return False
+        f.recoveries[j] += 1
+        self.follower.set_path(j, np.concatenate([back, on[1:]]))
+        f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.refresh()
+        return True
+
+    def take_slots(self, rows: list[int], z: np.ndarray, t: float) -> None:
+        """Robots ``rows`` are near their site and not there: where a standing robot takes the
+        service point, each goes to the nearest free service slot instead (``SLOTS`` points on
+        a ring two robot radii plus ``SLOT_GAP_M`` around it, clear of obstacles, of standing
+        robots and of the slots other robots drive to) and works there; with none free it
+        waits where it is for the service point."""
+        f, r = self.fleet, self.controller.radius_m
+        ring, room = 2.0 * r + SLOT_GAP_M, 2.0 * r + 0.5 * SLOT_GAP_M
+        standing = ((f.state != DRIVING) & ~f.yielding).nonzero()[0]
+        changed, idle = False, []
+        for j in rows:
+            site = f.site[j]
+            if self.slotted[j] or not len(standing) or np.abs(z[standing] - site).min() >= room:
+                continue  # a slot already, or the service point is free
+            on_it = standing[np.abs(z[standing] - site) < room]
+            if (f.state[on_it] == IDLE).all():  # finished there: it steps clear
+                idle += [int(b) for b in on_it if not f.yielding[b] and int(b) not in idle]
+                continue
+            cand = site + ring * np.exp(2j * np.pi * np.arange(SLOTS) / SLOTS)
+            ok = self.planner.free(np.column_stack([cand.real, cand.imag]))
+            ok &= np.abs(z[standing][:, None] - cand[None]).min(axis=0) >= room
+            driving = (f.state == DRIVING).nonzero()[0]
+            ok &= np.abs(f.site[driving][:, None] - cand[None]).min(axis=0) > 1e-6
+            if not ok.any():
+                continue
+            k = int(np.where(ok, np.abs(cand - z[j]), np.inf).argmin())
+            path = self.planner.path((z[j].real, z[j].imag), (cand[k].real, cand[k].imag))
+            if not len(path):
+                continue
+            f.site[j] = cand[k]
+            self.slotted[j] = True
+            self.follower.set_path(j, path)
+            f.progress_m[j], f.t_progress_s[j] = np.inf, t
+            changed = True
+        if idle:
+            self.step_clear(idle, t)
+        if changed or idle:
+            self.refresh()
+
+    def step_clear(self, rows: list[int], t: float) -> None:
+        """Idle robots ``rows`` stand on a service point another robot comes for: each steps
+        ``YIELD_STEP_M`` aside (to the left or right of its heading, whichever is free); one
+        with no free step stays where it is. The caller calls :meth:`refresh`."""
+        f, z = self.fleet, self.fleet.last_z_m
+        steps, paths = [], []
+        for j in rows:
+            travel = np.exp(1j * self.bodies[j].angle)
+            close = np.abs(z - z[j]) < 2.0 * YIELD_STEP_M
+            close[j] = False
+            path = self.planner.side_step(z[j], z[j] - travel, travel, YIELD_STEP_M, z[close])
+            if len(path):
+                steps.append(j)
+                paths.append(path)
+                f.yielding[j], f.yield_until_s[j] = True, t + YIELD_TIMEOUT_S
+        self.follower.set_paths(steps, paths)
 
     def stop_yield(self, j: int) -> None:
         """Robot j stops yielding (the caller calls :meth:`refresh` after)."""

@@ -39,21 +39,30 @@ class Motors:
     Args:
         space: the space to add the robots to (add nothing else dynamic or kinematic after).
         drive: body and tyre parameters.
-        starts: (m, 2) start positions; every robot starts facing +x.
+        starts: (m, 2) start positions.
         collision_type: pymunk collision type of the robot shapes.
+        headings_rad: (m,) start headings from +x (None: every robot faces +x).
     """
 
     def __init__(
-        self, space: pymunk.Space, drive: DriveSpec, starts: np.ndarray, collision_type: int
+        self,
+        space: pymunk.Space,
+        drive: DriveSpec,
+        starts: np.ndarray,
+        collision_type: int,
+        headings_rad: np.ndarray | None = None,
     ) -> None:
         self.space = space
         force_n = drive.mass_kg * drive.traction_mps2
         moment = pymunk.moment_for_circle(drive.mass_kg, 0.0, drive.radius_m)
         self.bodies, self.pivots, controls = [], [], []
         starts = np.asarray(starts, dtype=float)
-        for xy in starts:  # robots first, then their control bodies: two runs of buffer rows
+        angles = np.zeros(len(starts)) if headings_rad is None else np.asarray(headings_rad)
+        for xy, angle in zip(starts, angles.tolist(), strict=True):  # robots, then controls
             body = pymunk.Body(drive.mass_kg, moment)
             body.position = tuple(xy)
+            if angle:
+                body.angle = angle
             shape = pymunk.Circle(body, drive.radius_m)
             shape.friction, shape.elasticity, shape.collision_type = 0.3, 0.0, collision_type
             space.add(body, shape)
@@ -61,6 +70,8 @@ class Motors:
         for xy, body in zip(starts, self.bodies, strict=True):
             ctrl = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             ctrl.position = tuple(xy)
+            if body.angle:
+                ctrl.angle = body.angle
             pivot = pymunk.PivotJoint(ctrl, body, (0.0, 0.0), (0.0, 0.0))
             gear = pymunk.GearJoint(ctrl, body, 0.0, 1.0)
             pivot.max_bias = gear.max_bias = 0.0  # match velocities only: no spring back

@@ -95,11 +95,12 @@ class PymunkWorld:
         self.controller = DiffDriveController(sp.drive, self.substeps * sp.dt_s)
         self.exec_time_s_ = np.asarray(scenario.exec_time_s, dtype=float)
         self.starts_ = np.array([r.start_xy for r in scenario.robots], dtype=float)
+        self.headings_ = np.radians([r.heading_deg for r in scenario.robots])
         self.reach_m_ = 2.0 * sp.drive.radius_m + 0.1  # centres closer than this are touching
         self.reset(np.random.default_rng(0))
 
     def reset(self, rng: np.random.Generator) -> None:
-        """Rebuild the space with every robot at its start, facing +x, free."""
+        """Rebuild the space with every robot at its start, facing its start heading, free."""
         sp, drive, m = self.spatial, self.spatial.drive, self.scenario.n_robots
         space = pymunk.Space()
         space.collision_slop = sp.collision_slop_m
@@ -110,12 +111,12 @@ class PymunkWorld:
             shape = pymunk.Poly(space.static_body, poly)
             shape.friction, shape.collision_type = 0.3, WALL
             space.add(shape)
-        self.motors = Motors(space, drive, self.starts_, ROBOT)
+        self.motors = Motors(space, drive, self.starts_, ROBOT, self.headings_)
         self.contacts = ContactMonitor(space, ROBOT, WALL)
         self.space = space
         self.clock = Clock(self.dt_s)
         self.goal_s_, self.last_ctrl_step_ = 0.0, -1
-        self.fleet = FleetState.at_start(self.starts_)
+        self.fleet = FleetState.at_start(self.starts_, self.headings_)
         self.schedule = Schedule(state_list=self.fleet.state.tolist())
         walls = [((0, 0), (sp.width_m, 0)), ((sp.width_m, 0), (sp.width_m, sp.height_m))]
         walls += [((sp.width_m, sp.height_m), (0, sp.height_m)), ((0, sp.height_m), (0, 0))]
@@ -136,6 +137,7 @@ class PymunkWorld:
             bodies=self.motors.bodies,
             rng=rng,
             keep_lists=kind.keeps_lists,
+            clear_sites=sp.avoidance == "orca",
         )
         parts = ControlParts(
             self.fleet,
@@ -146,6 +148,7 @@ class PymunkWorld:
             self.controller,
             sp.arrive_tol_m,
             self.reach_m_,
+            sp.avoidance == "orca",
         )
         self.control = kind(parts)
 
@@ -232,8 +235,20 @@ class PymunkWorld:
         return out
 
     def summary(self, record=None) -> dict:
-        """JSON-able physics statistics of the run so far."""
+        """JSON-able physics statistics of the run so far: contacts begun robot-robot and
+        robot-wall, each a touch (closing speed below ``sim.contacts.IMPACT_MPS``) or an impact,
+        also per robot-hour (robots x simulated hours)."""
+        c = self.contacts
+        hours = max(self.scenario.n_robots * self.time_s / 3600.0, 1e-12)
+        kinds = {
+            "robot_touch": c.robot_hits - c.robot_impacts,
+            "robot_impact": c.robot_impacts,
+            "wall_touch": c.wall_hits - c.wall_impacts,
+            "wall_impact": c.wall_impacts,
+        }
         return {
+            **{f"contacts_{k}": n for k, n in kinds.items()},
+            **{f"contacts_{k}_per_robot_h": n / hours for k, n in kinds.items()},
             "sim_time_s": self.time_s,
             "physics_steps": self.steps_,
             "distance_driven_m": float(self.fleet.moved_m.sum()),

@@ -18,6 +18,7 @@ class RobotSpec:
     name: str
     capabilities: tuple[int, ...]  # indices into Scenario.task_types
     start_xy: tuple[float, float] | None = None  # m
+    heading_deg: float = 0.0  # initial heading from +x, counter-clockwise (spatial worlds)
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,6 +105,7 @@ class SpatialSpec:
     clearance_m: float = 0.1  # planned paths keep this much space beyond the robot radius
     max_recoveries: int = 3  # back-off-and-replan attempts before a task is reported failed
     collision_slop_m: float = 0.005  # pymunk's allowed overlap, in metres
+    avoidance: str = "none"  # "orca": reciprocal collision avoidance (sim.orca), opt-in; "none"
 
 
 @dataclass(frozen=True, slots=True)

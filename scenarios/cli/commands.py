@@ -156,6 +156,10 @@ def cmd_run(args) -> int:
         f"low {comp['low']:.3f} high {comp['high']:.3f} all {comp['all']:.3f}; "
         f"wrote {out}/metrics.json"
     )
+    if scenario.spatial is not None:
+        from scenarios.experiments.figures import contact_line
+
+        print(contact_line(summary["spatial"]).replace("\n", " "))
     return 0
 
 

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.contacts import IMPACT_MPS
+
 ALLOCATOR_COLOURS = {"market": "#4c72b0", "ql": "#dd8452", "expt": "#55a868"}
 ALLOCATOR_LABELS = {"market": "Market (MRTA)", "ql": "QL-MRTA", "expt": "ExpT-MRTA"}
 BEHAVIOUR_LABELS = ("B0 regular", "B1 eager/hesitant", "B2 refused")
@@ -308,10 +310,22 @@ def fig_run_spatial(table: dict, spatial: dict, cost: str, path: Path | None = N
         d.tick_params(axis="x", rotation=90 if len(robots) > 12 else 0)
         for ax in (a, b, c, d):
             ax.grid(alpha=0.3)
-        fig.suptitle(
-            f"collisions robot-robot {spatial.get('collisions_robot', 0):.0f}, robot-wall "
-            f"{spatial.get('collisions_wall', 0):.0f}; deepest overlap "
-            f"{1000 * spatial.get('max_overlap_m', 0.0):.1f} mm; failed tasks {int((~ok).sum())}"
-        )
+        fig.suptitle(contact_line(spatial) + f"; failed tasks {int((~ok).sum())}")
     save_figure(fig, path)
     return fig
+
+
+def contact_line(spatial: dict) -> str:
+    """Contacts begun per robot-hour by kind, the deepest overlap and the one-line definition."""
+    rate = {k: spatial.get(f"contacts_{k}_per_robot_h", float("nan")) for k in CONTACT_KINDS}
+    return (
+        f"contacts per robot-hour: robot-robot {rate['robot_touch']:.2f} touch, "
+        f"{rate['robot_impact']:.2f} impact; robot-wall {rate['wall_touch']:.2f} touch, "
+        f"{rate['wall_impact']:.2f} impact; deepest overlap "
+        f"{1000 * spatial.get('max_overlap_m', 0.0):.1f} mm\n"
+        f"(a contact begun is a touch below {IMPACT_MPS:g} m/s closing speed along its normal, "
+        "else an impact)"
+    )
+
+
+CONTACT_KINDS = ("robot_touch", "robot_impact", "wall_touch", "wall_impact")

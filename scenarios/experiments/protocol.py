@@ -39,10 +39,12 @@ from scenarios.experiments.metrics import (
 )
 from scenarios.loader import load_scenario
 from sim import make_world
+from sim.orca import AVOIDANCE
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
 
 OVERRIDABLE = ("stream", "learning", "experience")
+SPATIAL_OVERRIDES = {"spatial.avoidance": AVOIDANCE}  # spatial keys a run may override: values
 
 
 class UserError(ValueError):
@@ -72,6 +74,15 @@ def apply_overrides(scenario: Scenario, overrides: Sequence[tuple[str, float]]) 
     """Return the scenario with ``section.key`` values replaced (sweeps, trade-off curves)."""
     for path, value in overrides:
         section, _, key = path.partition(".")
+        if path in SPATIAL_OVERRIDES:
+            if scenario.spatial is None:
+                raise UserError(f"override {path!r}: {scenario.name!r} has no [spatial] table")
+            if value not in SPATIAL_OVERRIDES[path]:
+                allowed = ", ".join(SPATIAL_OVERRIDES[path])
+                raise UserError(f"override {path!r}: must be one of {allowed}; got {value!r}")
+            spatial = dataclasses.replace(scenario.spatial, **{key: value})
+            scenario = dataclasses.replace(scenario, spatial=spatial)
+            continue
         if section not in OVERRIDABLE:
             raise UserError(f"override {path!r}: section must be one of {', '.join(OVERRIDABLE)}")
         spec = getattr(scenario, section)

@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from learning.episode import LOSS_CAUSES
 
+SPATIAL_CONTACTS = tuple(
+    f"contacts_{kind}_per_robot_h"
+    for kind in ("robot_touch", "robot_impact", "wall_touch", "wall_impact")
+)
+
 METRIC_COLUMNS = (
     "completion_low",
     "completion_high",
@@ -20,6 +25,14 @@ METRIC_COLUMNS = (
     "specialisation_bits",  # mean over robots of the entropy of the types each was given
     "distance_per_task_m",  # spatial: metres driven per completed task (test sets)
     "time_per_task_s",  # spatial: allocation to done, per completed task
+    "time_to_start_s",  # spatial: allocation to arrival, per completed task
+    "failed_tasks",  # spatial: tasks reported failed
+    *SPATIAL_CONTACTS,  # spatial: contacts begun per robot-hour, by kind (sim.contacts)
 )
 INT_COLUMNS = {"seed", "tasks_announced", "tasks_allocated", "space_initial", "space_final"}
-INT_COLUMNS |= {"kept_capabilities", "min_willing", *(f"lost_{c}" for c in LOSS_CAUSES)}
+INT_COLUMNS |= {
+    "kept_capabilities",
+    "min_willing",
+    "failed_tasks",
+    *(f"lost_{c}" for c in LOSS_CAUSES),
+}

@@ -18,7 +18,7 @@ from learning.episode import LOSS_CAUSES
 from scenarios.experiments.metrics import ci95
 from scenarios.experiments.output import write_json_atomic, write_rows_atomic
 from scenarios.experiments.protocol import UserError
-from scenarios.sweep.columns import INT_COLUMNS, METRIC_COLUMNS
+from scenarios.sweep.columns import INT_COLUMNS, METRIC_COLUMNS, SPATIAL_CONTACTS
 from scenarios.sweep.spec import PARAMETERS
 
 SUMMARY_METRICS = (
@@ -72,11 +72,18 @@ def metric_row(summary: dict) -> dict[str, str]:
         "specialisation_bits": _opt(summary["specialisation"]["entropy_bits_mean"]),
         "distance_per_task_m": "",
         "time_per_task_s": "",
+        "time_to_start_s": "",
+        "failed_tasks": "",
+        **{c: "" for c in SPATIAL_CONTACTS},
     }
     spatial = summary.get("spatial")
     if spatial is not None:
         row["distance_per_task_m"] = _opt(spatial["distance_per_task_m"])
         row["time_per_task_s"] = _opt(spatial["time_to_finish_s"])
+        row["time_to_start_s"] = _opt(spatial["time_to_start_s"])
+        row["failed_tasks"] = _num(spatial["failed_tasks"])
+        for c in SPATIAL_CONTACTS:
+            row[c] = _opt(spatial.get(c))
     space = summary.get("learning_space")
     if space is not None:
         row["space_initial"] = _num(int(space["initial"]))

@@ -20,7 +20,7 @@ from typing import Any
 
 from allocation.costs import COST_MODELS
 from learning.registry import AllocatorError, allocator_class
-from scenarios.experiments.protocol import OVERRIDABLE, RunSpec
+from scenarios.experiments.protocol import OVERRIDABLE, SPATIAL_OVERRIDES, RunSpec
 from scenarios.loader import (
     ScenarioError,
     bundled_toml,
@@ -39,7 +39,7 @@ PARAMETERS = {  # every overridable "section.key" and its default (which gives i
     for s, cls in SECTIONS.items()
     if s in OVERRIDABLE
     for f in fields(cls)
-}
+} | {path: allowed[0] for path, allowed in SPATIAL_OVERRIDES.items()}
 TOP_KEYS = {"sweep", "fixed", "grid", "points"}
 SWEEP_KEYS = {"name", "description", "scenarios", "allocators", "costs", "seeds"}
 MAX_RUNS = 100_000
@@ -218,7 +218,7 @@ class _Parser:
         for key in flat:
             if key not in PARAMETERS:
                 section = key.partition(".")[0]
-                if section not in SECTIONS:
+                if section not in SECTIONS and section != "spatial":
                     hint = did_you_mean(key, list(PARAMETERS))
                     hint = hint or f" (sections: {', '.join(SECTIONS)})"
                 else:

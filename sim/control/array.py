@@ -8,12 +8,13 @@ schedule in ``sim.fleet``); per-robot Python runs on task events only (``sim.job
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from sim.control.avoidance import steer_clear
 from sim.control.protocol import ControlParts
-from sim.drive_law import SPEED_BOUND, next_check_s
+from sim.drive_law import SPEED_BOUND, next_check_s, preferred_velocity
 from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M
 from sim.recording import DRIVING, IDLE
 
@@ -34,6 +35,10 @@ class ArrayControl:
     keeps_lists = False
 
     parts: ControlParts
+    pref_: np.ndarray = field(init=False)  # (m,) preferred velocities for ORCA, m/s
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pref_", np.zeros(len(self.parts.fleet.state), dtype=complex))
 
     def period(self, t: float) -> None:
         """Read poses, advance tasks, steer, cap speeds, limit the wheels, write the motors."""
@@ -47,6 +52,8 @@ class ArrayControl:
         f.last_z_m[:] = z
         f.last_th_rad[:] = th
         v, w, rows = self._steer(z, hc, t)  # rows: robots beyond the free width of their path
+        if p.avoid and sch.n_steer:
+            self._avoid(z, rob["vel"], h, v, w, t)
         if t >= sch.prox_check_s:
             self._near(z, th, h, hc, v, w, t)
         else:
@@ -85,6 +92,17 @@ class ArrayControl:
         if sch.n_steer if back is None else np.count_nonzero(steered):
             aim, gap, left, corner2, off_path = p.follower.targets(z)
             v, w = p.controller.steer(hc, aim, gap, corner2)
+            if p.avoid:
+                self.pref_[:] = preferred_velocity(
+                    aim,
+                    gap,
+                    corner2,
+                    p.controller.brake_mps2,
+                    p.controller.v_max_mps,
+                    np.sqrt,
+                    np.minimum,
+                )
+                np.multiply(self.pref_, steered, out=self.pref_)
             if back is not None or sch.n_steer < len(v):
                 v *= steered
                 w *= steered
@@ -116,6 +134,13 @@ class ArrayControl:
         jobs.end_due(t)
         return v, w, off_path
 
+    def _avoid(self, z, vel, h, v, w, t: float) -> None:
+        """ORCA for the robots that steer (``steer_clear``; writes ``v``, ``w`` in place)."""
+        out = steer_clear(self.parts, z, vel, h, self.pref_, v, t)
+        if out is not None:
+            sel, v_new, w_new = out
+            v[sel], w[sel] = v_new, w_new
+
     def _arrive(self, z: np.ndarray, go: np.ndarray, v: np.ndarray, w: np.ndarray, t: float):
         """Robots at their site (or beside robots standing there) start work; schedule the next
         check for when the driving robot nearest its arrival zone could first be in it."""
@@ -125,7 +150,11 @@ class ArrayControl:
         zone = tol + 2 * reach
         there = go & (gap <= zone)
         if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
-            queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]
+            if p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
+                p.jobs.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)
+                queue = np.zeros(0, dtype=int)
+            else:
+                queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]
             there &= gap <= tol
             if queue.size:  # touching a robot that stands nearer the site: the site is taken,
                 # and working beside the robots already there counts as arrived
@@ -162,7 +191,7 @@ class ArrayControl:
         v[:] = cap
         f.blocker, f.near_m = blocker, near
         closest = float(near.min())
-        if closest < c.keep_right_m:
+        if closest < c.keep_right_m and not p.avoid:
             w[:] = c.keep_right(th, w, blocker, near, f.state == DRIVING)
         if closest < reach:
             pushing = (f.state == DRIVING) & (near < reach)

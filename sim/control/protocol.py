@@ -33,6 +33,8 @@ class ControlParts:
         controller: the drive limits and the law over arrays.
         arrive_tol_m: a robot this close to its site has arrived, m.
         reach_m: robot centres closer than this are touching, m.
+        avoid: steer with ORCA (``sim.orca``) and without keep-right (``[spatial]
+            avoidance = "orca"``); False: today's proximity law alone.
     """
 
     fleet: FleetState
@@ -43,6 +45,7 @@ class ControlParts:
     controller: DiffDriveController
     arrive_tol_m: float
     reach_m: float
+    avoid: bool = False
 
 
 class Control(Protocol):

@@ -24,6 +24,7 @@ from math import atan2, cos, sqrt
 
 import numpy as np
 
+from sim.control.avoidance import steer_clear
 from sim.control.protocol import ControlParts
 from sim.drive_law import (
     COS_AHEAD,
@@ -36,6 +37,7 @@ from sim.drive_law import (
     next_check_s,
     on_arc,
     pair_share_m,
+    preferred_velocity,
     rim_speed_mps,
     steer_speeds,
     stopping_time_s,
@@ -94,11 +96,13 @@ class ScalarControl:
                 go[j] = False
             steered = [j for j in steered if j not in backing]
         v, w = [0.0] * m, [0.0] * m
+        pref = [0j] * m
         off = []  # robots beyond the free width of their path
         if steered:
             tgt, unit_c, switch, beyond, free0, free1, after, corner2, seg_m = fol.segment_lists()
             gain, bias = c.align_gain_, c.align_bias_
             brake2 = 2.0 * c.brake_mps2
+            brake, top_v, avoiding = c.brake_mps2, c.v_max_mps, p.avoid
             left_m, progress = f.left_m, f.progress_m.tolist()
             until = f.yield_until_s.tolist() if yielding is not None else None
             stops = []
@@ -122,6 +126,8 @@ class ScalarControl:
                 local = aim * hs[j].conjugate()
                 err = atan2(local.imag, local.real)
                 vj, stop = steer_speeds(cos(err), gap, corner2[j], gain, bias, brake2, sqrt)
+                if avoiding:
+                    pref[j] = preferred_velocity(aim, gap, corner2[j], brake, top_v, sqrt, min)
                 vj = 0.0 if vj < 0.0 else (stop if stop < vj else vj)
                 wj = err * HEADING_GAIN
                 left = gap + after[j]
@@ -146,7 +152,12 @@ class ScalarControl:
         for j in backing:
             v[j], w[j] = f.backoff_cmd[j].tolist()
         jobs.end_due(t)
-        # ---- other robots (sim.drive.DiffDriveController.proximity), obstacles ----
+        # ---- other robots: ORCA (sim.orca), proximity caps (DiffDriveController.proximity) ----
+        if self.parts.avoid and steered:  # (p was reused for a point above)
+            out = steer_clear(self.parts, zn, rob["vel"], hn, np.array(pref), np.array(v), t)
+            if out is not None:
+                for j, vj, wj in zip(*(a.tolist() for a in out), strict=True):
+                    v[j], w[j] = vj, wj
         state = sch.state_list  # arrivals and ends of work may have changed it
         if t >= sch.prox_check_s:
             self._near(zn, zs, ths, hs, hn, state, v, v0s, w, t)
@@ -216,6 +227,9 @@ class ScalarControl:
                     arrived.append(j)
                 elif gap <= zone:
                     queue.append((j, gap))
+        if queue and p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
+            p.jobs.take_slots([j for j, _ in queue], np.array(zs), t)
+            queue = []
         if queue:  # touching a robot that stands nearer the site: the site is taken,
             # and working beside the robots already there counts as arrived
             near, state, yielding = (
@@ -327,7 +341,7 @@ class ScalarControl:
                 v[j] = limit[j] if v[j] > 0.0 else -limit[j]
         f.blocker, f.near_m = np.array(blocker), np.array(near)
         closest = min(near)
-        if closest < c.keep_right_m:
+        if closest < c.keep_right_m and not p.avoid:
             turn = KEEP_RIGHT_GAIN * c.omega_max_radps
             for j in movers:
                 o = blocker[j]

@@ -34,6 +34,8 @@ SHORT_SPATIAL = (
     ("experience.n_min", 4),
     ("experience.delta_u", 0.3),
 )
+NO_AVOIDANCE = (("spatial.avoidance", "none"),)  # today's law, as the cases were recorded
+ORCA = (("spatial.avoidance", "orca"),)
 SHORT_LARGE = (
     ("stream.n_sets", 1),
     ("stream.rounds_per_set", 6),
@@ -53,11 +55,37 @@ CASES = (
         "expt",
         "distance",
         1,
-        SHORT_SPATIAL,
+        SHORT_SPATIAL + NO_AVOIDANCE,
         "scalar",
     ),
-    ("spatial_market_time_array", "paper_spatial", "market", "time", 2, SHORT_SPATIAL, "array"),
-    ("spatial_large_ql_distance", "large", "ql", "distance", 0, SHORT_LARGE, None),
+    (
+        "spatial_market_time_array",
+        "paper_spatial",
+        "market",
+        "time",
+        2,
+        SHORT_SPATIAL + NO_AVOIDANCE,
+        "array",
+    ),
+    ("spatial_large_ql_distance", "large", "ql", "distance", 0, SHORT_LARGE + NO_AVOIDANCE, None),
+    (
+        "spatial_orca_expt_distance_scalar",
+        "paper_spatial",
+        "expt",
+        "distance",
+        1,
+        SHORT_SPATIAL + ORCA,
+        "scalar",
+    ),
+    (
+        "spatial_orca_market_time_array",
+        "paper_spatial",
+        "market",
+        "time",
+        2,
+        SHORT_SPATIAL + ORCA,
+        "array",
+    ),
 )
 
 

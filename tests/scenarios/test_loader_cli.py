@@ -139,6 +139,7 @@ def test_bundled_files_are_listed_per_folder():
     assert bundled_names() == ["large", "paper", "paper_spatial", "scale1000", "warehouse"]
     assert bundled_toml() == bundled_names()
     assert bundled_toml("sweeps") == [
+        "avoidance",
         "delta_u",
         "experience",
         "history",

@@ -1,0 +1,207 @@
+"""ORCA (sim.orca): the small programs against brute force, and the classic hard cases in the
+pymunk world with our physics and wheel limits.
+
+Reference for the circle swap (SPEC §7): IR-SIM 2.12's RVO behaviour with its example parameters
+(radius 0.25 m on a 5 m circle, 1 m/s top speed, 60 Hz) brings 10 robots across in 17.8 s and 20
+in 23.1 s without a contact. The bounds below are those times: the swap must be at least as good.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sim.orca import forward_speed, half_planes, solve
+from sim.physics import PymunkWorld
+from sim.recording import DRIVING
+from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.tasks import Batch
+
+ONE_MPS = DriveSpec(max_wheel_speed_radps=12.5)  # 0.08 m wheels: 1 m/s top speed, radius 0.25 m
+
+
+def swap_world(starts, goals, size_m, control, avoidance="orca", obstacles=()) -> PymunkWorld:
+    """Robots at ``starts``, each sent at once to its own goal (one task type per robot)."""
+    n = len(starts)
+    sp = SpatialSpec(
+        size_m[0],
+        size_m[1],
+        tuple(obstacles),
+        tuple((tuple(g),) for g in goals),
+        ONE_MPS,
+        arrive_tol_m=0.1,
+        avoidance=avoidance,
+    )
+    robots = tuple(RobotSpec(f"R{k}", (k,), tuple(starts[k])) for k in range(n))
+    types = tuple(f"T{k}" for k in range(n))
+    sc = Scenario("swap", types, robots, ((1.0,) * n,) * n, (1000.0,) * n, spatial=sp)
+    world = PymunkWorld(sc, control=control)
+    world.reset(np.random.default_rng(0))
+    batch = Batch(0, 0, np.arange(n), np.arange(n), np.zeros(n, bool), np.asarray(goals, float))
+    world.apply(batch, np.arange(n), np.ones(n))
+    return world
+
+
+def time_to_all_arrive(world: PymunkWorld, limit_s: float) -> float:
+    """Simulated time at which the last robot arrived (inf if not within ``limit_s``)."""
+    while world.time_s < limit_s:
+        world.advance(0.1)
+        if not (world.fleet.state == DRIVING).any():
+            return world.time_s
+    return math.inf
+
+
+def circle(n: int, radius_m: float = 5.0, centre=(7.0, 7.0)):
+    angle = 2.0 * math.pi * np.arange(n) / n
+    starts = np.column_stack([np.cos(angle), np.sin(angle)]) * radius_m + centre
+    return starts, 2.0 * np.asarray(centre) - starts
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+@pytest.mark.parametrize(("n", "bound_s"), [(10, 17.8), (20, 23.1)])
+def test_antipodal_circle_swap_beats_the_reference_without_a_contact(
+    n, bound_s, control, report_line
+):
+    starts, goals = circle(n)
+    world = swap_world(starts, goals, (14.0, 14.0), control)
+    t = time_to_all_arrive(world, 60.0)
+    report_line(
+        f"ORCA antipodal swap, {n} robots on a 5 m circle, {control} control: across in "
+        f"{t:.1f} s (IR-SIM RVO {bound_s} s), robot contacts {world.collisions_robot_}"
+    )
+    assert t <= bound_s, f"{n} robots took {t} s"
+    assert world.collisions_robot_ == 0
+    assert world.collisions_wall_ == 0
+    assert world.jobs.failures == 0
+
+
+def test_without_avoidance_the_circle_swap_touches():
+    """The comparison the key exists for: today's law nudges its way through."""
+    starts, goals = circle(10)
+    world = swap_world(starts, goals, (14.0, 14.0), "scalar", avoidance="none")
+    time_to_all_arrive(world, 60.0)
+    assert world.collisions_robot_ > 0
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_four_robots_crossing_at_a_junction_pass_without_contact(control):
+    """Four robots 4 m from a crossing drive straight through it to the opposite arm: the
+    straight run is 8 m at 1 m/s; the bound leaves 2.5x that for the crossing."""
+    c = np.array([6.0, 6.0])
+    starts = c + np.array([[4.0, 0.0], [0.0, 4.0], [-4.0, 0.0], [0.0, -4.0]])
+    goals = 2.0 * c - starts
+    world = swap_world(starts, goals, (12.0, 12.0), control)
+    t = time_to_all_arrive(world, 60.0)
+    assert t <= 20.0
+    assert world.collisions_robot_ == 0
+    assert world.jobs.failures == 0
+
+
+def brute_force(normal, offset, pref, v_max, step=0.01):
+    """Nearest feasible velocity to pref on a grid over the speed disc (None if none)."""
+    g = np.arange(-v_max, v_max + step / 2, step)
+    u = (g[:, None] + 1j * g[None, :]).ravel()
+    u = u[np.abs(u) <= v_max]
+    ok = ((u[:, None] * normal.conj()).real >= offset - 1e-12).all(axis=1)
+    if not ok.any():
+        return None
+    return u[ok][np.abs(u[ok] - pref).argmin()]
+
+
+def test_solve_matches_brute_force_on_random_programs():
+    rng = np.random.default_rng(7)
+    checked = 0
+    for _ in range(200):
+        lines = int(rng.integers(1, 5))
+        normal = np.exp(1j * rng.uniform(0, 2 * math.pi, lines))
+        offset = rng.uniform(-1.0, 0.6, lines)
+        pref = complex(*rng.uniform(-1.5, 1.5, 2))
+        want = brute_force(normal, offset, pref, 1.0)
+        got = solve(normal[None], offset[None], np.array([pref]), 1.0)[0]
+        if want is None:
+            continue
+        checked += 1
+        assert abs(got) <= 1.0 + 1e-9
+        assert ((got * normal.conj()).real >= offset - 1e-9).all()
+        assert abs(got - pref) <= abs(want - pref) + 1e-9  # at least as near as the grid's best
+    assert checked > 100
+
+
+def test_half_plane_of_a_head_on_pair_asks_each_for_half_and_lets_sideways_through():
+    """Two robots 2 m apart closing at 1 m/s each (horizon 1.5 s, radii 0.3 m): the relative
+    velocity 2 m/s enters the cone, so each must give up some closing speed, while moving away
+    or to the side stays allowed."""
+    n, c = half_planes(
+        np.array([2.0 + 0j]),
+        np.array([2.0 + 0j]),
+        np.array([1.0 + 0j]),
+        np.array([0.5]),
+        0.6,
+        1 / 1.5,
+        10.0,
+    )
+    allowed = lambda u: (u * n.conj()).real[0] >= c[0] - 1e-12  # noqa: E731
+    assert not allowed(1.0 + 0j)
+    assert allowed(-0.5 + 0j)
+    assert allowed(0.2 + 1j) or allowed(0.2 - 1j)
+
+
+def test_forward_speed_keeps_the_driven_velocity_in_every_half_plane():
+    normal = np.array([[-1.0 + 0j, 1j]])  # u.x <= 0.4, u.y >= -0.2
+    offset = np.array([[-0.4, -0.2]])
+    v = forward_speed(normal, offset, np.array([1.0 + 0j]), np.array([1.5]), 1.5)
+    assert v[0] == pytest.approx(0.4)
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_two_robots_swap_ends_of_a_corridor_one_and_a_half_diameters_wide(control):
+    """A 4 m corridor 0.75 m wide between two rooms; two robots swap ends. They meet inside,
+    where neither can pass: after ``stuck_timeout_s`` (20 s) without progress the deadlock is
+    seen and one robot backs out past where it started while the other comes through. Bound,
+    each drive at 1 m/s taken twice over for turns and braking: meeting (at most the 6 m
+    between the starts, 12 s), the wait, backing out and across (2.3 m + 7.5 m, 20 s):
+    stuck_timeout_s + 32 s. No impact (a touch of a wall is allowed)."""
+    half = 0.375
+    walls = (
+        ((4.0, 0.0), (8.0, 0.0), (8.0, 3.0 - half), (4.0, 3.0 - half)),
+        ((4.0, 3.0 + half), (8.0, 3.0 + half), (8.0, 6.0), (4.0, 6.0)),
+    )
+    starts, goals = [(3.5, 3.0), (8.5, 3.0)], [(9.5, 3.0), (2.5, 3.0)]
+    world = swap_world(starts, goals, (12.0, 6.0), control, obstacles=walls)
+    t = time_to_all_arrive(world, 120.0)
+    assert t <= world.spatial.stuck_timeout_s + 32.0
+    assert world.jobs.failures == 0
+    assert world.collisions_robot_ == 0
+    assert world.contacts.robot_impacts == world.contacts.wall_impacts == 0
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_a_robot_passes_a_row_of_parked_robots_without_contact(control):
+    """Ten robots stand at work 0.6 m beside a 10 m lane (0.1 m of air to a robot on the lane
+    centre line); one drives past them: 10 m at 1 m/s, the bound leaves a third more."""
+    parked = [(3.0 + 0.7 * k, 3.6) for k in range(10)]
+    starts = [(1.0, 3.0), *parked]
+    goals = [(11.0, 3.0), *parked]
+    world = swap_world(starts, goals, (12.0, 6.0), control)
+    t = time_to_all_arrive(world, 60.0)
+    assert t <= 13.5
+    assert world.collisions_robot_ == 0
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_robots_sent_to_one_taken_site_work_in_its_slots_within_the_tolerance(control):
+    """Three robots, one site: the first works on the service point, the others in service
+    slots, each within ``arrive_tol_m`` of where it works, none touching another."""
+    site = (7.0, 3.0)
+    starts = [(2.0, 3.0), (2.0, 5.0), (2.0, 1.0)]
+    world = swap_world(starts, [site] * 3, (12.0, 6.0), control)
+    sp = world.spatial
+    t = time_to_all_arrive(world, 40.0)
+    assert t <= 20.0
+    xy = world.poses()[0] @ np.array([1.0, 1j])
+    assert np.abs(xy - world.fleet.site).max() <= sp.arrive_tol_m
+    assert np.abs(xy - complex(*site)).min() <= sp.arrive_tol_m  # one on the service point
+    assert world.collisions_robot_ == 0
+    assert world.jobs.failures == 0

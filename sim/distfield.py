@@ -48,6 +48,14 @@ class DistanceField:
         self.planner = planner
         self.sites = np.unique(np.asarray(sites, dtype=float).reshape(-1, 2), axis=0)
 
+    @staticmethod
+    def fits(planner, n_sites: int) -> bool:
+        """True if a field of ``planner``'s arena for ``n_sites`` sites can be built: anchor
+        codes in 15 bits, keys of the undecided pairs in 31."""
+        grid, _ = _grid(planner.spatial.width_m, planner.spatial.height_m, n_sites)
+        small = len(planner.vertices_) + 3 <= np.iinfo(np.int16).max
+        return small and grid.nx * grid.ny * n_sites < 2**31
+
     @classmethod
     def build(cls, planner, sites: np.ndarray) -> DistanceField:
         """Precompute the table for ``sites`` (k, 2) in ``planner``'s arena."""
@@ -66,13 +74,11 @@ class DistanceField:
         verts = pl.vertices_
         nv = len(verts)
         self.n_vertices_ = nv
-        if nv + 3 > np.iinfo(np.int16).max:
-            raise ValueError(f"{nv} obstacle vertices: the anchor table holds at most 32764")
+        if not self.fits(pl, n_sites):
+            raise ValueError(f"{nv} vertices and {n_sites} sites do not fit a distance field")
         self.grid_, self.levels_ = grid, levels = _grid(
             pl.spatial.width_m, pl.spatial.height_m, n_sites
         )
-        if grid.nx * grid.ny * n_sites >= 2**31:
-            raise ValueError("too many cells x sites for the index of undecided pairs")
         obstacles = planner_obstacles(pl)
         points = np.concatenate([verts, goals])
         self.sight_ = SightIndex(points, obstacles)

@@ -234,3 +234,13 @@ def test_blocked_by_decides_as_blocked(arena):
     k = len(planner.polygons_)
     per = np.array([planner.blocked_by(a, b, np.full(len(a), j)) for j in range(k)])
     np.testing.assert_array_equal(per.any(axis=0), planner.blocked(a, b))
+
+
+def test_a_scenario_without_sites_builds_no_field():
+    planner = GridPlanner(SpatialSpec(20.0, 20.0, (BOX,), ((),), DriveSpec(), clearance_m=0.1))
+    rng = np.random.default_rng(11)
+    pos, sites = rng.uniform(1, 19, size=(FIELD_MIN_ROBOTS, 2)), rng.uniform(1, 19, size=(5, 2))
+    np.testing.assert_array_equal(
+        planner.distances(pos, sites), planner.exact_distances(pos, sites)
+    )
+    assert planner.field_ is None and not planner.field_fits()

@@ -15,6 +15,7 @@ table gives the planner's distance up to rounding (the tests compare it with
 
 from __future__ import annotations
 
+import copy
 import time
 from collections import OrderedDict
 
@@ -45,7 +46,9 @@ class DistanceField:
     """
 
     def __init__(self, planner, sites: np.ndarray) -> None:
-        self.planner = planner
+        # a shallow copy: GridPlanner.set_obstacles rebinds the planner's geometry, and the
+        # field, which other planners may share, must keep the geometry it was built for
+        self.planner = copy.copy(planner)
         self.sites = np.unique(np.asarray(sites, dtype=float).reshape(-1, 2), axis=0)
 
     @staticmethod

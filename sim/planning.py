@@ -364,7 +364,9 @@ class GridPlanner:
         the path :meth:`path` plans, up to rounding."""
         pos = np.asarray(positions, dtype=float).reshape(-1, 2)
         sites = np.asarray(sites, dtype=float).reshape(-1, 2)
-        if len(pos) < FIELD_MIN_ROBOTS or not len(sites) or not self.site_points().size:
+        if len(pos) < FIELD_MIN_ROBOTS or not len(sites):
+            return self.exact_distances(pos, sites)
+        if self.field_ is None and not self.field_fits():  # no sites, or far too many
             return self.exact_distances(pos, sites)
         field = self.field()
         cols = field.columns(sites)
@@ -383,6 +385,11 @@ class GridPlanner:
         """(k, 2) every task site of the scenario (all types), as given."""
         pts = [p for sites in self.spatial.sites for p in sites]
         return np.array(pts, dtype=float).reshape(-1, 2)
+
+    def field_fits(self) -> bool:
+        """True if the scenario has task sites and a distance field of them can be built."""
+        n_sites = len(np.unique(self.site_points(), axis=0))
+        return n_sites > 0 and DistanceField.fits(self, n_sites)
 
     def field(self) -> DistanceField:
         """The distance field of this arena (current obstacles) and the scenario's task sites:

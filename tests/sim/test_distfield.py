@@ -234,3 +234,28 @@ def test_blocked_by_decides_as_blocked(arena):
     k = len(planner.polygons_)
     per = np.array([planner.blocked_by(a, b, np.full(len(a), j)) for j in range(k)])
     np.testing.assert_array_equal(per.any(axis=0), planner.blocked(a, b))
+
+
+def test_a_scenario_without_sites_builds_no_field():
+    planner = GridPlanner(SpatialSpec(20.0, 20.0, (BOX,), ((),), DriveSpec(), clearance_m=0.1))
+    rng = np.random.default_rng(11)
+    pos, sites = rng.uniform(1, 19, size=(FIELD_MIN_ROBOTS, 2)), rng.uniform(1, 19, size=(5, 2))
+    np.testing.assert_array_equal(
+        planner.distances(pos, sites), planner.exact_distances(pos, sites)
+    )
+    assert planner.field_ is None and not planner.field_fits()
+
+
+def test_a_shared_field_keeps_its_arena_when_one_planner_gets_new_obstacles():
+    a, b = planner_with_sites((BOX,)), planner_with_sites((BOX,))
+    rng = np.random.default_rng(12)
+    pos = rng.uniform(0, 20, size=(FIELD_MIN_ROBOTS, 2))
+    sites = a.site_points()
+    a.distances(pos, sites)
+    a.set_obstacles((TRIANGLE,))
+    np.testing.assert_allclose(
+        b.distances(pos, sites), b.exact_distances(pos, sites), rtol=1e-12, atol=1e-9
+    )
+    np.testing.assert_allclose(
+        a.distances(pos, sites), a.exact_distances(pos, sites), rtol=1e-12, atol=1e-9
+    )

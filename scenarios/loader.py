@@ -31,6 +31,7 @@ MAX_ROBOTS = 5000
 MAX_TYPES = 200
 MAX_TASKS = 5_000_000  # sets x rounds x batch_max: beyond this a stream would not fit in memory
 MAX_HISTORY_SPACE = 50_000_000  # largest per-robot Q-table (entries) we agree to allocate
+MAX_HISTORY = 1000  # the state pads a history list to h entries: h itself must stay small
 
 
 class ScenarioError(ValueError):
@@ -189,6 +190,7 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
         val = getattr(lp, key)
         v.check(0.0 <= val <= 1.0, f"learning.{key}", f"{val} outside [0, 1]")
     v.check(lp.history >= 1, "learning.history", "must be at least 1")
+    v.check(lp.history <= MAX_HISTORY, "learning.history", f"must be at most {MAX_HISTORY:,}")
     widest = max(len(r.capabilities) for r in robots)
     if lp.history * math.log(widest) > math.log(MAX_HISTORY_SPACE):  # no huge int powers
         digits = lp.history * math.log10(widest) + math.log10(2)

@@ -315,6 +315,12 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument(
         "--out", type=Path, default=None, help="output folder (default renders/sweeps/<name>/)"
     )
+    add_runner_options(p)
+    return p
+
+
+def add_runner_options(p: argparse.ArgumentParser) -> None:
+    """--workers, --scheduler and --no-progress of the commands that run sweeps."""
     p.add_argument(
         "--workers", type=int_at_least(1), default=None, help="local processes (default: all cores)"
     )
@@ -325,7 +331,6 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
         help="run on a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (needs expt-mrta[cluster])",
     )
     p.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
-    return p
 
 
 def add_study_parser(subparsers) -> argparse.ArgumentParser:
@@ -354,13 +359,7 @@ def add_study_parser(subparsers) -> argparse.ArgumentParser:
         help="comma-separated subset of the parts, e.g. refusal_load,refusal_frontier "
         "(default: all three)",
     )
-    p.add_argument(
-        "--workers", type=int_at_least(1), default=None, help="local processes (default: all cores)"
-    )
-    p.add_argument(
-        "--scheduler", default=None, metavar="ADDRESS", help="a running Dask scheduler address"
-    )
-    p.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
+    add_runner_options(p)
     return p
 
 

@@ -173,3 +173,9 @@ def test_malformed_stream_file_names_the_error(tmp_path):
     with pytest.raises(StreamFileError) as info:
         load_stream(path)
     assert str(info.value) == f"{path}: malformed stream file (KeyError: 'set')"
+
+
+def test_abstract_tasks_have_no_site(paper):
+    stream = generate_stream(paper, np.random.default_rng(0))
+    assert stream.sites.dtype == float and stream.sites.shape == (len(stream), 2)
+    assert np.isnan(stream.sites).all()

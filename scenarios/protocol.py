@@ -20,8 +20,6 @@ from scenarios.experiments.protocol import (
     run_many,
 )
 
-_load = load_named  # the old private name, still imported by scenarios/bench.py
-
 __all__ = [
     "OVERRIDABLE",
     "RunSpec",

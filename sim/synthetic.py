@@ -1,4 +1,4 @@
-"""A plausible synthetic trajectory for the renderer's tests and benchmark (``sim.bench_render``).
+"""A plausible synthetic trajectory for the renderer's tests and benchmark (``scenarios.bench``).
 
 A cheap, seeded stand-in for a recorded run: no world, no physics, no allocator. Robots drive at
 constant speed along obstacle-avoiding straight-line paths (a visibility graph over the inflated

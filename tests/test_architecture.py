@@ -31,13 +31,7 @@ FORBIDDEN = (  # (package, imported top-level name, module level only?)
     ("allocation", "matplotlib", False),
     ("allocation", "pymunk", False),
 )
-KNOWN_PRIVATE = {
-    # (user, private name): exceptions still to fix, each in a module that is being reworked on
-    # another branch (the pymunk world, rendering, the bench modules), where the name becomes
-    # public. The list only shrinks: an entry that no longer occurs fails the test below.
-    ("scenarios.bench", "sim.bench_sim._bare"),
-    ("scenarios.bench", "scenarios.protocol._load"),
-}
+KNOWN_PRIVATE: frozenset[tuple[str, str]] = frozenset()  # (user, private name): none left
 
 
 @dataclass(frozen=True, slots=True)
@@ -281,12 +275,6 @@ def test_no_import_cycles_between_modules_or_rooms(report):
 def test_no_private_names_across_modules(report):
     unknown = [p for p in report.privates if (p.user, p.name) not in KNOWN_PRIVATE]
     assert unknown == [], "make what another module needs public and named"
-
-
-def test_known_private_uses_still_exist(report):
-    """The list of known exceptions only shrinks: remove an entry once it is fixed."""
-    seen = {(p.user, p.name) for p in report.privates}
-    assert sorted(KNOWN_PRIVATE - seen) == []
 
 
 def test_no_drawing_in_physics_and_no_physics_in_allocation(report):

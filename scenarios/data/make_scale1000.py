@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from allocation.bench_alloc import synthetic_scenario
+from scenarios.bench.alloc import synthetic_scenario
 from sim.scenario import StreamSpec
 
 SEED = 1000

@@ -67,7 +67,7 @@ class FrameScene:
         figure: draw into this figure (its canvas must be Agg) instead of a new one.
         blit: cache the background and stamp text with Pillow (``draw`` needs this). With
             ``blit=False`` every artist, text included, is an ordinary matplotlib artist that a
-            full ``canvas.draw()`` renders (the baseline in ``sim.bench_render``).
+            full ``canvas.draw()`` renders (the baseline in ``scenarios.bench.gif``).
     """
 
     def __init__(

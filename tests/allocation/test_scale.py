@@ -17,10 +17,10 @@ from allocation.auction import (
     solve_priority_assignment,
     solve_priority_assignment_dense,
 )
-from allocation.bench_alloc import bench_alloc
 from allocation.costs import make_cost_model
 from allocation.sparse import cheapest_bidders
 from learning.episode import run_protocol
+from scenarios.bench.alloc import bench_alloc
 from scenarios.loader import load_scenario
 from sim.tasks import Batch, generate_stream
 from sim.world import AbstractWorld, WorldState

@@ -13,8 +13,8 @@ from allocation.auction import (
     solve_priority_assignment,
     solve_priority_assignment_dense,
 )
-from allocation.bench_alloc import bench_assignment, bench_costs
 from allocation.costs import DistanceCost, StraightLineCost
+from scenarios.bench.alloc import bench_assignment, bench_costs
 from sim.bench_arena import bench_scenario
 from sim.distfield import SHARED
 from sim.planning import GridPlanner

@@ -121,11 +121,11 @@ def bench_sim(
             steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
-        bare = _bare(world, max(60, steps // 4))
+        bare = bare_step_time(world, max(60, steps // 4))
         free = sim.contacts.FREE_ITERATIONS
         try:  # the same with pymunk's default solver iterations throughout
             sim.contacts.FREE_ITERATIONS = world.space.iterations = 10
-            bare10 = _bare(world, max(60, steps // 4))
+            bare10 = bare_step_time(world, max(60, steps // 4))
         finally:
             sim.contacts.FREE_ITERATIONS = free
         bids_ms = _bids_ms(world, rng)
@@ -212,7 +212,7 @@ def _bids_ms(world: PymunkWorld, rng: np.random.Generator, tasks: int = 7) -> fl
     return 1e3 * best
 
 
-def _bare(world: PymunkWorld, n: int) -> float:
+def bare_step_time(world: PymunkWorld, n: int) -> float:
     """Seconds per bare ``space.step`` over ``n`` steps of the world's space."""
     step, dt = world.space.step, world.dt_s
     t0 = time.perf_counter()

@@ -2,7 +2,7 @@
 
 Both render the same frames of the same trajectory in the same process, one after the other,
 after a small warm-up that pays matplotlib's import and font-cache costs for both. Report the
-ratio; absolute seconds depend on the machine. Run ``python -m sim.bench_render``.
+ratio; absolute seconds depend on the machine. Run ``python -m scenarios.bench.gif``.
 """
 
 from __future__ import annotations

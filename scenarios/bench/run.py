@@ -79,8 +79,8 @@ def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
     import time
 
     from learning.episode import run_protocol
+    from scenarios.bench.loop import bare_step_time, timed_avoidance
     from scenarios.protocol import RunSpec, build_run
-    from sim.bench_sim import _bare, timed_avoidance
     from sim.recording import TrajectoryRecorder
 
     part = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
@@ -94,7 +94,7 @@ def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
         run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
     wall = time.perf_counter() - t0
     steps = world.steps_ - steps0
-    bare = _bare(world, max(60, steps // 4))
+    bare = bare_step_time(world, max(60, steps // 4))
     return {
         "steps_per_s": steps / wall,
         "rtf": steps * world.dt_s / wall,
@@ -108,10 +108,10 @@ def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
 
 
 def _paper_trajectory():
-    from scenarios.protocol import RunSpec, _load, execute
+    from scenarios.protocol import RunSpec, execute, load_named
     from sim.recording import TrajectoryRecorder
 
-    sc = _load("paper_spatial")
+    sc = load_named("paper_spatial")
     recorder = TrajectoryRecorder.for_scenario(sc)
     one_set = (("stream.n_sets", 1), ("stream.learn_sets", 1), ("stream.test_sets", 1))
     execute(RunSpec("paper_spatial", "expt", "distance", 0, one_set), recorder=recorder)
@@ -127,7 +127,7 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             print(text, file=sys.stdout, flush=True)
 
     if "sim" in parts:
-        from sim.bench_sim import bench_sim
+        from scenarios.bench.loop import bench_sim
 
         say("sim: full loop vs bare space.step, physics at 60 Hz, control at 10 Hz ...")
         synthetic = bench_sim(allocator=PlannedMarket)
@@ -164,7 +164,7 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             f"loop/bare = {busy['busy_bare_ratio']:.2f}"
         )
     if "gif" in parts:
-        from sim.bench_render import bench_gif
+        from scenarios.bench.gif import bench_gif
 
         say("gif: 200 frames 600x600, paper_spatial, ours vs FuncAnimation + PillowWriter ...")
         out["gif"] = bench_gif(_paper_trajectory(), frames=200, size=(600, 600))
@@ -174,8 +174,8 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             f"({g['baseline_seconds'] / g['seconds']:.1f}x faster)"
         )
     if "alloc" in parts:
-        from allocation.bench_alloc import bench_alloc, bench_assignment, bench_costs
         from learning import ALLOCATORS
+        from scenarios.bench.alloc import bench_alloc, bench_assignment, bench_costs
 
         say("alloc: ms per round, 50 types, 7 tasks a round ...")
         out["alloc"] = bench_alloc(allocators=ALLOCATORS)

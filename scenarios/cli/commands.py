@@ -159,7 +159,7 @@ def cmd_run(args) -> int:
     if scenario.spatial is not None:
         from scenarios.experiments.figures import contact_line
 
-        print(contact_line(summary["spatial"]).replace("\n", " "))
+        print(contact_line(summary["spatial"]).replace("\n", "; "))
     return 0
 
 

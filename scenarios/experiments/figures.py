@@ -310,21 +310,24 @@ def fig_run_spatial(table: dict, spatial: dict, cost: str, path: Path | None = N
         d.tick_params(axis="x", rotation=90 if len(robots) > 12 else 0)
         for ax in (a, b, c, d):
             ax.grid(alpha=0.3)
-        fig.suptitle(contact_line(spatial) + f"; failed tasks {int((~ok).sum())}")
+        fig.suptitle(contact_line(spatial, f"; failed tasks {int((~ok).sum())}"))
     save_figure(fig, path)
     return fig
 
 
-def contact_line(spatial: dict) -> str:
-    """Contacts begun per robot-hour by kind, the deepest overlap and the one-line definition."""
+def contact_line(spatial: dict, extra: str = "") -> str:
+    """Contacts begun per robot-hour by kind, the deepest overlap (then ``extra``) and the
+    one-line definition, on three lines."""
     rate = {k: spatial.get(f"contacts_{k}_per_robot_h", float("nan")) for k in CONTACT_KINDS}
-    return (
-        f"contacts per robot-hour: robot-robot {rate['robot_touch']:.2f} touch, "
-        f"{rate['robot_impact']:.2f} impact; robot-wall {rate['wall_touch']:.2f} touch, "
-        f"{rate['wall_impact']:.2f} impact; deepest overlap "
-        f"{1000 * spatial.get('max_overlap_m', 0.0):.1f} mm\n"
-        f"(a contact begun is a touch below {IMPACT_MPS:g} m/s closing speed along its normal, "
-        "else an impact)"
+    return "\n".join(
+        [
+            f"contacts per robot-hour: robot-robot {rate['robot_touch']:.2f} touch, "
+            f"{rate['robot_impact']:.2f} impact; robot-wall {rate['wall_touch']:.2f} touch, "
+            f"{rate['wall_impact']:.2f} impact",
+            f"deepest overlap {1000 * spatial.get('max_overlap_m', 0.0):.1f} mm{extra}",
+            f"(a contact begun is a touch below {IMPACT_MPS:g} m/s closing speed along its "
+            "normal, else an impact)",
+        ]
     )
 
 

@@ -246,14 +246,7 @@ def avoid(
     if not bind.any():
         return None
     normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
-    import os
-
-    mode = os.environ.get("BIAS", "full")
-    if mode == "full":
-        pref = pref * KEEP_RIGHT
-    elif mode == "slow":
-        slow = 1.0 - np.minimum(np.abs(vel[rows[bind]]) / v_max, 1.0)
-        pref = pref * np.exp(-1j * np.radians(RIGHT_BIAS_DEG) * slow)
+    pref = pref * KEEP_RIGHT
     on, oc = obstacle_plane(to_obstacle(zi[bind]), r_eff, 1.0 / TAU_OBSTACLE_S)
     normal = np.concatenate([normal, on[:, None]], axis=1)
     offset = np.concatenate([offset, oc[:, None]], axis=1)

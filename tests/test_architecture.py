@@ -352,3 +352,15 @@ def test_checker_fails_on_matplotlib_in_physics_at_import_time():
     eager = check(_with(sim__world="from matplotlib import pyplot\n")).forbidden
     assert eager == ["sim.world:1 imports matplotlib at module level"]
     assert check(_with(allocation__auction=lazy.replace("matplotlib", "pymunk"))).forbidden
+
+
+def test_no_environment_variable_changes_behaviour():
+    """A run depends on its spec only: no package module reads the environment (an experiment
+    switch left in ``sim/orca.py`` once did)."""
+    offenders = []
+    for pkg in ("sim", "allocation", "learning"):
+        for path in sorted((ROOT / pkg).rglob("*.py")):
+            text = path.read_text()
+            if "os.environ" in text or "getenv(" in text:
+                offenders.append(str(path.relative_to(ROOT)))
+    assert offenders == []

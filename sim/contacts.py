@@ -73,6 +73,22 @@ class ContactMonitor:
         self.query_fn_ = ffi.addressof(lib, "pmSpaceArbiterIteratorFuncBatched")
         self.ptr_view_, self.view_ = None, np.zeros(0)
 
+    COUNTERS = ("robot_hits", "wall_hits", "robot_impacts", "wall_impacts", "steps_touching")
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The counts and the deepest overlap since reset. ``touching`` is not kept: it counts
+        the contacts of this space, and a restored space starts without any (pymunk finds the
+        contacts that still touch again, as contacts begun)."""
+        out = {name: np.array(getattr(self, name), dtype=np.int64) for name in self.COUNTERS}
+        out["max_overlap_m"] = np.array(self.max_overlap_m)
+        return out
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Inverse of :meth:`state_arrays`, into a monitor of a freshly built space."""
+        for name in self.COUNTERS:
+            setattr(self, name, int(arrays[name]))
+        self.max_overlap_m = float(arrays["max_overlap_m"])
+
     def _touch(self) -> None:
         if not self.touching:
             lib.cpSpaceSetIterations(self.ptr_, CONTACT_ITERATIONS)

@@ -247,6 +247,11 @@ class DiffDriveController:
             )
         return self.verlet_
 
+    def forget_neighbours(self) -> None:
+        """Drop the Verlet list (a rebuilt space: the next call builds it afresh)."""
+        self.verlet_z_ = np.zeros(0, dtype=complex)
+        self.verlet_ = (np.zeros(0, dtype=int), np.zeros(0, dtype=int))
+
     def diag_inf(self, m: int) -> np.ndarray:
         """(m, m) zeros with inf on the diagonal (cached)."""
         if len(self.diag_) != m:

@@ -124,6 +124,17 @@ class FleetState:
         """No robot is in any robot's way (``blocker`` -1, ``near_m`` inf for all)."""
         self.blocker, self.near_m = self.nobody
 
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Every per-robot array by field name (copies; ``nobody`` is a constant)."""
+        return {name: getattr(self, name).copy() for name in self.__slots__ if name != "nobody"}
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Inverse of :meth:`state_arrays`: each array copied in with its field's dtype."""
+        for name in self.__slots__:
+            if name != "nobody":
+                old = getattr(self, name)
+                setattr(self, name, np.array(arrays[name], dtype=old.dtype).reshape(old.shape))
+
 
 @dataclass(slots=True, eq=False)
 class Schedule:
@@ -163,6 +174,21 @@ class Schedule:
     recovering: bool = False
     state_list: list[int] = field(default_factory=list)
     steer_list: list[int] = field(default_factory=list)
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The times, counts and flags as 0-d arrays (the lists follow from the fleet state
+        and are rebuilt by ``Jobs.refresh``)."""
+        return {
+            name: np.array(getattr(self, name))
+            for name in self.__slots__
+            if name not in ("state_list", "steer_list")
+        }
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Inverse of :meth:`state_arrays` (the lists are left to the caller)."""
+        for name in self.__slots__:
+            if name not in ("state_list", "steer_list"):
+                setattr(self, name, type(getattr(self, name))(arrays[name].item()))
 
 
 @dataclass(slots=True, eq=False)

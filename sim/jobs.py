@@ -142,6 +142,13 @@ class Jobs:
         busy[wrk] = np.maximum(f.work_end_s[wrk], t)
         return busy
 
+    def refresh_lists(self) -> None:
+        """The schedule's state and steering lists from the fleet state (scalar control)."""
+        if self.keep_lists:
+            f = self.fleet
+            self.schedule.state_list = f.state.tolist()
+            self.schedule.steer_list = ((f.state == DRIVING) | f.yielding).nonzero()[0].tolist()
+
     def refresh(self) -> None:
         """Refresh the schedule's next-event times and counts after a task event."""
         f, sch = self.fleet, self.schedule
@@ -399,6 +406,23 @@ class Jobs:
                 paths.append(path)
                 f.yielding[j], f.yield_until_s[j] = True, t + YIELD_TIMEOUT_S
         self.follower.set_paths(steps, paths)
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Service slots, where each robot was given its task and the failures so far (between
+        sets: no completion is waiting to be handed out)."""
+        if self.done:
+            raise RuntimeError("jobs state requested with completions not handed out")
+        return {
+            "slotted": self.slotted.copy(),
+            "origin": self.origin.copy(),
+            "failures": np.array(self.failures, dtype=np.int64),
+        }
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Inverse of :meth:`state_arrays`, then the schedule's lists and counts again."""
+        self.slotted = np.array(arrays["slotted"], dtype=bool)
+        self.origin = np.array(arrays["origin"], dtype=complex)
+        self.failures = int(arrays["failures"])
 
     def stop_yield(self, j: int) -> None:
         """Robot j stops yielding (the caller calls :meth:`refresh` after)."""

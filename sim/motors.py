@@ -160,6 +160,48 @@ class Motors:
             self.set_anchor_(self.cp_pivots_[j], (0.0, -radius))
             self.anchor_list_[j] = radius
 
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """Pose, velocity and turn rate of every robot and control body ((m, 6) floats: x, y,
+        angle, vx, vy, omega) and the arc radius each pivot is anchored at, as the array path
+        (:meth:`write`) and the scalar path (:meth:`write_one`) keep it (one of the two is
+        used in a world and the other stays zero)."""
+        self.read()
+        return {
+            "robots": self.flat.copy(),
+            "controls": self.ctl_flat.reshape(-1, 6).copy(),
+            "arc_radius_array": self.anchor_.copy(),
+            "arc_radius_scalar": np.array(self.anchor_list_, dtype=float),
+        }
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Put robots and control bodies where :meth:`state_arrays` found them, at the same
+        velocities, with the pivots anchored as they were (into freshly built bodies)."""
+        robots, controls = arrays["robots"].tolist(), arrays["controls"].tolist()
+        by_array = np.asarray(arrays["arc_radius_array"], dtype=float)
+        by_scalar = np.asarray(arrays["arc_radius_scalar"], dtype=float)
+        anchor = np.where(by_array != 0.0, by_array, by_scalar).tolist()
+        for body, row in zip(self.bodies, robots, strict=True):
+            _set_body(body, row)
+        for k, (body, row) in enumerate(zip(self.cp_ctl_, controls, strict=True)):
+            self.set_pos_(body, (row[0], row[1]))
+            self.set_angle_(body, row[2])
+            self.set_vel_(body, (row[3], row[4]))
+            self.set_w_(body, row[5])
+            if anchor[k] != 0.0:
+                self.set_anchor_(self.cp_pivots_[k], (0.0, -anchor[k]))
+        self.anchor_ = by_array.copy()
+        self.radius_ = np.zeros(len(self.bodies))
+        self.anchor_list_ = by_scalar.tolist()
+        self.ptr_, self.num_ = None, -1
+
+
+def _set_body(body: pymunk.Body, row: list[float]) -> None:
+    """A body's position, angle, velocity and turn rate from x, y, angle, vx, vy, omega."""
+    body.position = (row[0], row[1])
+    body.angle = row[2]
+    body.velocity = (row[3], row[4])
+    body.angular_velocity = row[5]
+
 
 def _rows(rows: list[int]) -> slice | np.ndarray:
     """Rows of a batch buffer as a slice when contiguous (a view), else an index array."""

@@ -102,6 +102,7 @@ class PymunkWorld:
     def reset(self, rng: np.random.Generator) -> None:
         """Rebuild the space with every robot at its start, facing its start heading, free."""
         sp, drive, m = self.spatial, self.spatial.drive, self.scenario.n_robots
+        self.rng_ = rng
         space = pymunk.Space()
         space.collision_slop = sp.collision_slop_m
         w, h, t = sp.width_m, sp.height_m, WALL_THICKNESS_M
@@ -232,7 +233,72 @@ class PymunkWorld:
             self.jobs.finish(j, self.time_s, False, "drain: still unfinished at the time limit")
         out += self.jobs.done
         self.jobs.done = []
+        self.rebuild()
         return out
+
+    # -- set boundaries: the state as named arrays, and a space rebuilt from them -------------
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The world's whole state between task sets as named arrays (checkpoints): the clock,
+        the fleet's per-robot arrays, the bodies, the schedule, the task bookkeeping and the
+        contact counts, each component's under its prefix (``fleet/``, ``motors/``,
+        ``schedule/``, ``jobs/``, ``contacts/``). A component with state implements
+        ``state_arrays()`` and ``restore_arrays(arrays)``; registering one more is one entry
+        in :meth:`_components`. The world's generator is the caller's to save.
+
+        Raises:
+            RuntimeError: while a task is in progress (state is kept between sets only).
+        """
+        if (self.fleet.task >= 0).any():
+            raise RuntimeError("world state requested while tasks are in progress")
+        out = {
+            "clock/steps": np.array(self.clock.steps, dtype=np.int64),
+            "clock/goal_s": np.array(self.goal_s_),
+            "clock/last_control_step": np.array(self.last_ctrl_step_, dtype=np.int64),
+        }
+        for prefix, part in self._components():
+            out.update({f"{prefix}/{k}": v for k, v in part.state_arrays().items()})
+        return out
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Rebuild the space and put the state of :meth:`state_arrays` into it.
+
+        Chipmunk's cached contacts and the joints' accumulated impulses (warm starting) are
+        not part of the state: the new space starts without them, and a contact that still
+        touches is found again (counted as a contact begun). Every run rebuilds its space this
+        way at every set boundary (:meth:`drain`), so a run resumed from a checkpoint and one
+        played straight through take the very same steps.
+        """
+        self.reset(self.rng_)
+        self.clock.steps = int(arrays["clock/steps"])
+        self.goal_s_ = float(arrays["clock/goal_s"])
+        self.last_ctrl_step_ = int(arrays["clock/last_control_step"])
+        for prefix, part in self._components():
+            cut = len(prefix) + 1
+            part.restore_arrays(
+                {k[cut:]: v for k, v in arrays.items() if k.startswith(prefix + "/")}
+            )
+        self.controller.forget_neighbours()
+        self.jobs.refresh_lists()
+
+    def rebuild(self) -> None:
+        """End a set: robots that step aside stop, and the space is rebuilt from the state
+        (:meth:`restore_arrays`), as a resumed run builds it from its checkpoint."""
+        yielding = self.fleet.yielding.nonzero()[0].tolist()
+        for j in yielding:
+            self.jobs.stop_yield(j)
+        if yielding:
+            self.jobs.refresh()
+        self.restore_arrays(self.state_arrays())
+
+    def _components(self):
+        """The world's components with state, by checkpoint prefix."""
+        return (
+            ("fleet", self.fleet),
+            ("schedule", self.schedule),
+            ("motors", self.motors),
+            ("jobs", self.jobs),
+            ("contacts", self.contacts),
+        )
 
     def summary(self, record=None) -> dict:
         """JSON-able physics statistics of the run so far: contacts begun robot-robot and

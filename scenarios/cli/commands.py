@@ -126,8 +126,6 @@ def cmd_run(args) -> int:
     if args.resume and not checkpoint.is_file():
         raise UserError(f"{checkpoint}: no checkpoint to resume from (run with --checkpoint first)")
     scenario = load_named(spec.scenario)
-    if checkpoint is not None and scenario.spatial is not None:
-        raise UserError("checkpoints and --resume are supported in the abstract world only")
     manifest = build_manifest(scenario, [spec])
     out.mkdir(parents=True, exist_ok=True)
     desc = f"run {spec.allocator} on {scenario.name}"

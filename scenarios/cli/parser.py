@@ -175,9 +175,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="repeat the run recorded in a run_manifest.json",
     )
     run.add_argument(
-        "--checkpoint", action="store_true", help="write OUT/checkpoint.npz after every set"
+        "--checkpoint",
+        action="store_true",
+        help="write OUT/checkpoint.npz after every task set (atomically): learned state, the "
+        "record so far, generator states and the world (clock; in the pymunk world also poses, "
+        "velocities, task bookkeeping and contact counts)",
     )
-    run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
+    run.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue from OUT/checkpoint.npz; the metrics.json and tasks.csv equal those of "
+        "a run straight through",
+    )
     run.add_argument(
         "--allocator",
         type=_allocator_name,

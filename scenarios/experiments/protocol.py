@@ -155,7 +155,7 @@ def execute(
     if recorder is not None:
         world.recorder = recorder
     if checkpoint is not None and not hasattr(world, "state_arrays"):
-        raise UserError("checkpoints and --resume are supported in the abstract world only")
+        raise UserError(f"checkpoints and --resume: the world {type(world).__name__} has no state")
     resume_at = _resume(spec, checkpoint, allocator, world, rng) if resume else None
     on_set_end = None
     if checkpoint is not None:

@@ -173,9 +173,10 @@ def test_ctrl_c_stops_cleanly_and_says_where_to_resume(tmp_path, capsys, monkeyp
 
 def test_refused_run_leaves_the_output_folder_as_it_was(tmp_path, capsys):
     out = tmp_path / "run"
-    assert main(["run", "paper", "--allocator", "market", "--seed", "1", "--out", str(out)]) == 0
+    args = ["run", "paper", "--allocator", "market", "--seed", "1", "--out", str(out)]
+    assert main([*args, "--checkpoint"]) == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
-    code = main(["run", "paper_spatial", "--checkpoint", "--out", str(out)])
+    code = main(["run", "paper", "--allocator", "ql", "--resume", "--out", str(out)])
     err = capsys.readouterr().err
-    assert code == 2 and "abstract world only" in err and err.count("\n") == 1
+    assert code == 2 and "written by another run" in err and err.count("\n") == 1
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before

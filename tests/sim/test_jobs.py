@@ -868,3 +868,23 @@ def test_a_slot_exactly_its_room_from_a_standing_robot_is_free():
     assert abs(f.last_z_m[2] - k0) == 2 * 0.25 + 0.5 * 0.15
     w.jobs.take_slots([0], f.last_z_m, 4.0)
     assert f.site[0] == k0
+
+
+def test_a_slot_counts_as_another_robots_goal_up_to_a_micrometre_from_it():
+    # service point (1.2, 1.5): slot 0 is (1.85, 1.5); robot 2 drives to a point exactly
+    # 1e-6 m from it (offsets in units of 2^-52 m, so every difference is exact)
+    w = orca_world([(3.0, 1.6), (1.2, 1.5), (4.0, 4.0)])
+    f = w.fleet
+    give(w, [0, 2], [(1.2, 1.5), (6.0, 4.0)])
+    f.state[1] = WORKING
+    k0 = slot(1.2 + 1.5j, 0)
+    f.site[2] = complex(k0.real + 3979479812 * 2.0**-52, k0.imag + 2108589583 * 2.0**-52)
+    assert abs(f.site[2] - k0) == 1e-6
+    f.last_z_m[0] = 2.5 + 1.6j
+    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    assert f.site[0] == slot(1.2 + 1.5j, 1)  # slot 0 is robot 2's: the next nearest
+    w.jobs.slotted[0] = False
+    f.site[0] = 1.2 + 1.5j
+    f.site[2] = k0 + 2e-6  # farther: another point, slot 0 is free
+    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    assert f.site[0] == k0

@@ -57,6 +57,23 @@ def tally(codes: dict[str, int | None], equiv: dict[str, str]) -> Counter:
     return c
 
 
+def stale(runs: dict[str, dict[str, int | None]], equiv: dict[str, str]) -> list[str]:
+    """Entries of ``equivalent.toml`` that are wrong now: a mutant a test killed (so it is not
+    equivalent), or a name that no mutated module has any more (mutant names are numbered
+    within their function and shift when it changes) -- only for modules that were run."""
+    out = []
+    for codes in runs.values():
+        if not any(code is not None for code in codes.values()):
+            continue
+        prefix = next(iter(codes)).split(".x", 1)[0] + ".x" if codes else ""
+        for name in equiv:
+            if name in codes and codes[name] in KILLED:
+                out.append(f"killed, yet listed as equivalent: {name}")
+            elif name.startswith(prefix) and name not in codes:
+                out.append(f"no such mutant any more: {name}")
+    return out
+
+
 def main(argv: list[str]) -> int:
     equiv = equivalent()
     cols = ("killed", "survived", "equivalent", "timeout", "not run", "other")
@@ -70,6 +87,8 @@ def main(argv: list[str]) -> int:
             for name, code in codes.items():
                 if code in SURVIVED and name not in equiv:
                     print(f"    survived: {name}")
+    for line in stale(results(), equiv):
+        print(f"equivalent.toml: {line}")
     return 0
 
 

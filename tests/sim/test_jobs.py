@@ -1,0 +1,890 @@
+"""Task bookkeeping of the pymunk world (``sim.jobs.Jobs``), driven directly.
+
+Each test builds a small world for its collaborators (fleet state, schedule, clock, follower,
+planner), sets the fleet state by hand and calls one event handler of ``world.jobs`` the way a
+control period would; then it checks every number the handler writes. Distances are exact: with
+no obstacle in the way a planned path is the straight segment, so its length is the distance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim.jobs import BACKOFF_S, YIELD_TIMEOUT_S, Jobs
+from sim.physics import PymunkWorld
+from sim.recording import DRIVING, IDLE, WORKING
+from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.tasks import Batch
+from sim.world import Completion
+
+EXEC_S = (2.0, 5.0)  # execution time of task types 0 and 1, s
+V_MAX = 1.5  # m/s, the default drive's top speed
+OMEGA_MAX = 7.5  # rad/s, its top turn rate: rim speed / half the wheel base
+TIMEOUT = 20.0  # s, the default stuck timeout
+REACH = 0.6  # m, centres closer than two radii (0.25 m) + 0.1 m touch
+ROOM = [  # a closed box round (15, 5): a site inside it has no path from outside
+    ((13.0, 3.0), (17.0, 3.0), (17.0, 3.4), (13.0, 3.4)),
+    ((13.0, 6.6), (17.0, 6.6), (17.0, 7.0), (13.0, 7.0)),
+    ((13.0, 3.4), (13.4, 3.4), (13.4, 6.6), (13.0, 6.6)),
+    ((16.6, 3.4), (17.0, 3.4), (17.0, 6.6), (16.6, 6.6)),
+]
+
+
+def make_world(starts, obstacles=(), control="scalar", seed=0, **spatial) -> PymunkWorld:
+    """A 20 m x 10 m world with two task types (2 s and 5 s of work) every robot can do."""
+    sites = (tuple(starts), tuple(starts))
+    sp = SpatialSpec(20.0, 10.0, tuple(obstacles), sites, DriveSpec(), **spatial)
+    robots = tuple(RobotSpec(f"R{j + 1}", (0, 1), tuple(xy)) for j, xy in enumerate(starts))
+    scn = Scenario("t", ("A", "B"), robots, ((1.0, 1.0),) * len(robots), EXEC_S, spatial=sp)
+    world = PymunkWorld(scn, control=control)
+    world.reset(np.random.default_rng(seed))
+    return world
+
+
+def at(world: PymunkWorld, t_s: float) -> float:
+    """Set the world's clock to t_s (a whole number of physics steps) and return it."""
+    world.clock.steps = round(t_s / world.dt_s)
+    return world.clock.time_s
+
+
+def batch(ids, types, sites) -> Batch:
+    k = len(ids)
+    return Batch(0, 0, np.asarray(ids), np.asarray(types), np.zeros(k, bool), np.asarray(sites))
+
+
+def give(world: PymunkWorld, robots, sites, types=None, ids=None, bids=None, xy=None) -> None:
+    """Assign task k (id ids[k], type types[k], site sites[k]) to robot robots[k]."""
+    k = len(robots)
+    ids = list(range(k)) if ids is None else ids
+    types = [0] * k if types is None else types
+    bids = np.ones(k) if bids is None else np.asarray(bids, float)
+    xy = world.poses()[0] if xy is None else np.asarray(xy, float)
+    jobs = world.jobs
+    jobs.assign(batch(ids, types, sites), np.asarray(robots), bids, np.arange(k), xy)
+
+
+def waypoints(world: PymunkWorld, j: int) -> np.ndarray:
+    """Robot j's planned path as complex points (empty: it has none)."""
+    fol = world.follower
+    return fol.points[j, : fol.last[j] + 1]
+
+
+def done(world: PymunkWorld) -> list[Completion]:
+    out, world.jobs.done = world.jobs.done, []
+    return out
+
+
+# ---- assign ------------------------------------------------------------------------------
+
+
+def test_assign_writes_every_field_of_the_task_and_plans_the_path_from_the_given_positions():
+    w = make_world([(2.0, 5.0), (2.0, 2.0), (8.0, 8.0)])
+    f, jobs = w.fleet, w.jobs
+    t = at(w, 2.0)
+    f.moved_m[:] = [1.0, 3.5, 7.0]
+    f.recoveries[1], f.replan[1], f.stuck_left_m[1] = 2, True, 4.0  # left over from before
+    f.backoff_until_s[1], f.yielding[1], jobs.slotted[1] = 9.0, True, True
+    xy = [(2.0, 5.0), (3.0, 2.0), (8.0, 8.0)]  # robot 1 has moved since its start
+    give(w, [1, 0], [(12.0, 5.0), (2.0, 8.0)], types=[1, 0], ids=[7, 9], bids=[3.25, 4.5], xy=xy)
+    assert f.task.tolist() == [9, 7, -1]
+    assert f.task_type.tolist() == [0, 1, 0]
+    assert f.state.tolist() == [DRIVING, DRIVING, IDLE]
+    assert f.t_alloc_s[:2].tolist() == [t, t]
+    assert f.bid[:2].tolist() == [4.5, 3.25]
+    assert f.site.tolist() == [2 + 8j, 12 + 5j, 8 + 8j]
+    assert f.odo0_m.tolist() == [1.0, 3.5, 0.0]
+    assert f.recoveries.tolist() == [0, 0, 0]
+    assert f.replan.tolist() == [False, False, False]
+    assert f.stuck_left_m[:2].tolist() == [np.inf, np.inf]
+    assert f.backoff_until_s[:2].tolist() == [-np.inf, -np.inf]
+    assert f.yielding.tolist() == [False, False, False]
+    assert jobs.slotted.tolist() == [False, False, False]
+    assert jobs.origin.tolist() == [2 + 5j, 3 + 2j, 8 + 8j]
+    d1 = np.hypot(9.0, 3.0)  # (3, 2) -> (12, 5)
+    assert f.left_m[:2] == pytest.approx([3.0, d1], rel=1e-12)
+    assert f.progress_m[:2].tolist() == [np.inf, np.inf]
+    assert f.t_progress_s[:2].tolist() == [t, t]
+    slack = (3 + 1) * (TIMEOUT + BACKOFF_S) + 30.0  # default max_recoveries 3
+    expect = [t + 2.0 + 4 * 3.0 / V_MAX + slack, t + 5.0 + 4 * d1 / V_MAX + slack]
+    assert f.deadline_s[:2] == pytest.approx(expect, rel=1e-12)
+    assert waypoints(w, 0).tolist() == [2 + 5j, 2 + 8j]
+    assert waypoints(w, 1).tolist() == [3 + 2j, 12 + 5j]
+    assert w.follower.last[2] == -1
+    sch = w.schedule
+    assert sch.site_check_s == -np.inf
+    assert sch.next_deadline_s == pytest.approx(expect[0], rel=1e-12)
+    assert (sch.n_steer, sch.n_backoff, sch.n_yield) == (2, 0, 0)
+    assert sch.state_list == [DRIVING, DRIVING, IDLE]
+    assert sch.steer_list == [0, 1]
+    assert jobs.done == [] and jobs.failures == 0
+
+
+def test_assign_deadline_slack_follows_the_stuck_timeout_and_the_tries():
+    w = make_world([(2.0, 5.0)], stuck_timeout_s=4.0, max_recoveries=1)
+    t = at(w, 1.0)
+    give(w, [0], [(8.0, 5.0)], types=[1])
+    slack = (1 + 1) * (4.0 + BACKOFF_S) + 30.0
+    assert w.fleet.deadline_s[0] == pytest.approx(t + 5.0 + 4 * 6.0 / V_MAX + slack, rel=1e-12)
+
+
+def test_assign_to_a_busy_robot_or_without_a_site_raises():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    give(w, [0], [(8.0, 5.0)])
+    with pytest.raises(
+        RuntimeError, match=r"^invariant violated: robot 0 given a task while busy$"
+    ):
+        give(w, [0], [(8.0, 2.0)], ids=[3])
+    with pytest.raises(ValueError, match=r"^task 12 has no site: a spatial world needs one$"):
+        give(w, [1], [(np.nan, 2.0)], ids=[12])
+    with pytest.raises(ValueError, match=r"^task 13 has no site"):
+        give(w, [1], [(4.0, np.inf)], ids=[13])
+
+
+def test_assign_fails_an_unreachable_task_at_once_and_starts_the_others():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)], obstacles=ROOM)
+    f = w.fleet
+    t = at(w, 3.0)
+    f.moved_m[:] = [4.0, 6.5]
+    give(w, [0, 1], [(15.0, 5.0), (8.0, 2.0)], ids=[5, 6], bids=[2.5, 1.5])
+    reason = "unreachable: no path from (2.00, 5.00) to (15.00, 5.00)"
+    assert done(w) == [Completion(5, 0, t, t, 2.5, 0.0, False, reason)]
+    assert w.jobs.failures == 1
+    assert f.task.tolist() == [-1, 6]
+    assert f.state.tolist() == [IDLE, DRIVING]
+    assert f.left_m[1] == pytest.approx(6.0, rel=1e-12)
+    assert w.schedule.state_list == [IDLE, DRIVING]
+    assert w.schedule.n_steer == 1
+
+
+# ---- busy_until_s, refresh ---------------------------------------------------------------
+
+
+def test_busy_until_is_the_path_left_at_top_speed_plus_the_work_or_the_end_of_work():
+    w = make_world([(2.0, 5.0), (2.0, 2.0), (8.0, 8.0), (8.0, 2.0), (5.0, 5.0)])
+    f = w.fleet
+    f.state[:] = [DRIVING, WORKING, WORKING, IDLE, DRIVING]
+    f.task_type[:] = [1, 1, 0, 1, 0]
+    f.left_m[:] = [3.0, 9.0, 9.0, 9.0, 0.75]
+    f.work_end_s[:] = [50.0, 14.0, 7.0, 30.0, 50.0]
+    busy = w.jobs.busy_until_s(10.0)
+    assert busy.tolist() == [10.0 + 2.0 + 5.0, 14.0, 10.0, 10.0, 10.0 + 0.5 + 2.0]
+
+
+def test_refresh_counts_and_next_times_read_only_the_robots_they_are_about():
+    w = make_world([(x, 5.0) for x in (2.0, 4.0, 6.0, 8.0, 10.0, 12.0)])
+    f, sch = w.fleet, w.schedule
+    t = at(w, 10.0)
+    f.state[:] = [WORKING, IDLE, DRIVING, WORKING, IDLE, DRIVING]
+    f.task[:] = [1, -1, 2, 3, -1, 0]  # task ids count from 0
+    f.work_end_s[:] = [15.0, 3.0, 4.0, 12.0, 1.0, 2.0]  # only 0 and 3 work
+    f.deadline_s[:] = [90.0, 5.0, 70.0, 80.0, 6.0, 60.0]  # 1 and 4 hold no task
+    f.replan[:] = [False, False, True, False, False, False]
+    f.backoff_until_s[:] = [-np.inf, -np.inf, -np.inf, -np.inf, t, t + 0.5]  # 4: ends now
+    f.yielding[:] = [False, True, False, False, True, False]
+    sch.stuck_check_s = sch.prox_check_s = 99.0
+    sch.resting = True
+    w.jobs.refresh()
+    assert sch.next_end_s == 12.0
+    assert sch.next_deadline_s == 60.0
+    assert sch.n_backoff == 2  # robot 2 replans, robot 5 backs off; robot 4's back-off is over
+    assert sch.n_yield == 2
+    assert sch.n_steer == 2 + 2
+    assert sch.state_list == [WORKING, IDLE, DRIVING, WORKING, IDLE, DRIVING]
+    assert sch.steer_list == [1, 2, 4, 5]
+    assert sch.stuck_check_s == -np.inf and sch.prox_check_s == -np.inf
+    assert sch.resting is False
+
+
+def test_refresh_with_no_task_leaves_no_next_event():
+    w = make_world([(2.0, 5.0), (4.0, 5.0)])
+    f, sch = w.fleet, w.schedule
+    f.work_end_s[:] = [3.0, 4.0]
+    f.deadline_s[:] = [3.0, 4.0]
+    sch.next_end_s = sch.next_deadline_s = 1.0
+    w.jobs.refresh()
+    assert (sch.next_end_s, sch.next_deadline_s) == (np.inf, np.inf)
+    assert (sch.n_backoff, sch.n_yield, sch.n_steer) == (0, 0, 0)
+    assert sch.steer_list == []
+
+
+def test_refresh_of_the_array_control_keeps_no_lists():
+    w = make_world([(2.0, 5.0), (4.0, 5.0)], control="array")
+    sch = w.schedule
+    sch.state_list, sch.steer_list = ["untouched"], ["untouched"]
+    give(w, [1], [(8.0, 5.0)])
+    assert w.jobs.keep_lists is False
+    assert sch.n_steer == 1
+    assert (sch.state_list, sch.steer_list) == (["untouched"], ["untouched"])
+
+
+# ---- start_work, end_due, finish_work, finish --------------------------------------------
+
+
+def test_start_work_stops_the_robots_and_sets_the_end_of_their_work():
+    w = make_world([(2.0, 5.0), (2.0, 2.0), (8.0, 8.0)])
+    f, sch = w.fleet, w.schedule
+    give(w, [0, 1, 2], [(6.0, 5.0), (6.0, 2.0), (9.0, 8.0)], types=[0, 1, 1])
+    v, wz = np.array([1.0, 1.2, 1.4]), np.array([0.1, 0.2, 0.3])
+    sch.next_end_s = 100.0
+    t = at(w, 4.0)
+    w.jobs.start_work([1], v, wz, t)
+    assert f.state.tolist() == [DRIVING, WORKING, DRIVING]
+    assert f.work_end_s[1] == t + 5.0
+    assert f.t_progress_s[1] == np.inf and f.t_progress_s[0] == 0.0
+    assert (v.tolist(), wz.tolist()) == ([1.0, 0.0, 1.4], [0.1, 0.0, 0.3])
+    assert w.follower.last[1] == -1 and w.follower.last[0] == 1
+    assert sch.next_end_s == t + 5.0
+    assert sch.state_list == [DRIVING, WORKING, DRIVING] and sch.n_steer == 2
+    sch.resting = True
+    w.jobs.start_work([], v, wz, t)  # nobody arrived: no refresh
+    assert sch.resting is True
+
+
+def test_start_work_of_several_robots_in_one_call():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    f, sch = w.fleet, w.schedule
+    give(w, [0, 1], [(6.0, 5.0), (6.0, 2.0)], types=[1, 0])
+    v, wz = np.ones(2), np.ones(2)
+    t = at(w, 3.0)
+    w.jobs.start_work([0, 1], v, wz, t)
+    assert f.work_end_s.tolist() == [t + 5.0, t + 2.0]
+    assert sch.next_end_s == t + 2.0
+    assert sch.n_steer == 0 and sch.state_list == [WORKING, WORKING]
+
+
+def working(w: PymunkWorld, ends, types=None) -> None:
+    """Every robot holds a task (ids 0, 1, ...) and works until ends[j]."""
+    f = w.fleet
+    give(w, list(range(len(ends))), [(x + 3.0, y) for x, y in w.starts_], types=types)
+    w.jobs.start_work(list(range(len(ends))), np.zeros(len(ends)), np.zeros(len(ends)), 0.0)
+    f.work_end_s[:] = ends
+    w.jobs.refresh()
+
+
+def test_finish_work_reports_the_work_done_at_its_end_time_not_now():
+    w = make_world([(2.0, 5.0), (2.0, 2.0), (8.0, 8.0)])
+    f = w.fleet
+    working(w, [10.0, 10.0 + 0.5e-9, 10.0 + 2e-9])
+    f.moved_m[:] = [3.0, 4.0, 5.0]
+    w.jobs.finish_work(10.0)
+    out = done(w)
+    assert [(c.task_id, c.robot, c.t_done_s, c.ok, c.reason) for c in out] == [
+        (0, 0, 10.0, True, ""),
+        (1, 1, 10.0 + 0.5e-9, True, ""),
+    ]
+    assert [c.distance_m for c in out] == [3.0, 4.0]
+    assert f.task.tolist() == [-1, -1, 2]
+    assert f.state.tolist() == [IDLE, IDLE, WORKING]
+    assert w.schedule.next_end_s == 10.0 + 2e-9
+    assert w.jobs.failures == 0
+
+
+def test_end_due_ends_work_within_a_nanosecond_of_its_end():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    working(w, [10.0, 12.0])
+    w.jobs.end_due(10.0 - 2e-9)
+    assert done(w) == []
+    w.jobs.end_due(10.0 - 0.5e-9)
+    assert [c.task_id for c in done(w)] == [0]
+    assert w.schedule.next_end_s == 12.0
+    w.fleet.work_end_s[1] = 11.0 + 1e-9
+    w.jobs.refresh()
+    w.jobs.end_due(11.0)  # exactly 1e-9 s before the end
+    assert [c.task_id for c in done(w)] == [1]
+
+
+def test_end_due_fails_the_tasks_past_their_deadline_and_only_those():
+    w = make_world([(2.0, 5.0), (2.0, 2.0), (8.0, 8.0)])
+    f, sch = w.fleet, w.schedule
+    give(w, [0, 1, 2], [(6.0, 5.0), (6.0, 2.0), (9.0, 8.0)], ids=[0, 5, 6])
+    f.deadline_s[:] = [30.0, 30.5, 30.0]
+    f.moved_m[:] = [2.0, 0.0, 1.0]
+    w.jobs.refresh()
+    w.jobs.end_due(30.0)  # deadline reached, not passed
+    assert done(w) == [] and f.task.tolist() == [0, 5, 6]
+    sch.resting = True
+    w.jobs.end_due(30.5)
+    why = "timeout: task not finished by its deadline"
+    assert done(w) == [
+        Completion(0, 0, 0.0, 30.5, 1.0, 2.0, False, why),
+        Completion(6, 2, 0.0, 30.5, 1.0, 1.0, False, why),
+    ]
+    assert w.jobs.failures == 2
+    assert f.task.tolist() == [-1, 5, -1]  # robot 1's deadline is now: not past yet
+    assert sch.next_deadline_s == 30.5 and sch.resting is False
+    assert sch.state_list == [IDLE, DRIVING, IDLE]
+
+
+def test_end_due_past_the_scheduled_deadline_with_nobody_late_refreshes_nothing():
+    w = make_world([(2.0, 5.0)])
+    give(w, [0], [(6.0, 5.0)])
+    sch = w.schedule
+    sch.next_deadline_s = 10.0  # stale: the task's deadline is later
+    sch.resting = True
+    w.jobs.end_due(11.0)
+    assert done(w) == [] and sch.resting is True
+
+
+def test_finish_reports_the_completion_and_frees_the_robot():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    f, jobs = w.fleet, w.jobs
+    at(w, 2.0)
+    give(w, [0, 1], [(6.0, 5.0), (6.0, 2.0)], ids=[21, 22], bids=[3.0, 4.0])
+    f.moved_m[:] = [5.5, 2.0]
+    f.odo0_m[0] = 1.25
+    f.stuck_left_m[0], f.replan[0], f.backoff_until_s[0] = 3.0, True, 12.0
+    jobs.finish(0, 17.5, False, "why not")
+    assert done(w) == [Completion(21, 0, 2.0, 17.5, 3.0, 4.25, False, "why not")]
+    assert jobs.failures == 1
+    assert f.task.tolist() == [-1, 22]
+    assert f.state.tolist() == [IDLE, DRIVING]
+    assert (f.stuck_left_m[0], f.replan[0], f.backoff_until_s[0]) == (np.inf, False, -np.inf)
+    assert f.t_progress_s[0] == np.inf and f.t_progress_s[1] == 2.0
+    assert w.follower.last.tolist() == [-1, 1]
+    assert w.schedule.state_list == [IDLE, DRIVING] and w.schedule.n_steer == 1
+    jobs.finish(1, 18.0, True)
+    assert done(w) == [Completion(22, 1, 2.0, 18.0, 4.0, 2.0, True, "")]
+    assert jobs.failures == 1
+
+
+def test_finish_without_refresh_leaves_the_schedule_to_the_caller():
+    w = make_world([(2.0, 5.0)])
+    give(w, [0], [(6.0, 5.0)])
+    w.schedule.resting = True
+    w.jobs.finish(0, 5.0, True, refresh=False)
+    assert w.schedule.resting is True and w.schedule.state_list == [DRIVING]
+    assert w.fleet.task[0] == -1
+
+
+# ---- check_stuck, recover, recovered, replan ---------------------------------------------
+
+
+def test_check_stuck_recovers_only_the_robots_stuck_longer_than_the_timeout():
+    w = make_world([(2.0, 5.0), (2.0, 2.0), (8.0, 8.0), (8.0, 2.0)], seed=3)
+    f, sch = w.fleet, w.schedule
+    give(w, [0, 1, 2, 3], [(12.0, 5.0), (12.0, 2.0), (16.0, 8.0), (16.0, 2.0)])
+    t = at(w, 50.0)
+    f.t_progress_s[:] = [29.0, 30.0, 35.0, 29.5]
+    go = np.array([True, True, True, False])  # robot 3 does not steer now
+    w.jobs.check_stuck(go, t)
+    assert f.recoveries.tolist() == [1, 0, 0, 0]  # 20 s without progress is not yet stuck
+    assert f.replan.tolist() == [True, False, False, False]
+    assert sch.stuck_check_s == 29.5 + TIMEOUT  # the stalest robot left, 3
+    f.t_progress_s[:] = [np.inf, 31.0, 35.0, 32.0]
+    w.jobs.check_stuck(go, t)  # nobody stuck: only the next check moves
+    assert f.recoveries.tolist() == [1, 0, 0, 0]
+    assert sch.stuck_check_s == 31.0 + TIMEOUT
+
+
+def test_stuck_robot_backs_off_on_a_random_arc_then_replans():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)], seed=11)
+    f, sch = w.fleet, w.schedule
+    give(w, [0, 1], [(12.0, 5.0), (12.0, 2.0)])
+    t = at(w, 30.0)
+    f.left_m[0] = 7.25
+    w.jobs.recover(0, t)
+    turn = np.random.default_rng(11).uniform(-0.5, 0.5) * OMEGA_MAX
+    assert f.backoff_cmd[0] == pytest.approx([-0.3 * V_MAX, turn], rel=1e-12)
+    assert f.backoff_until_s[0] == t + BACKOFF_S
+    assert (f.t_progress_s[0], f.replan[0], f.recoveries[0]) == (np.inf, True, 1)
+    assert f.stuck_left_m.tolist() == [7.25, np.inf]
+    assert w.follower.last.tolist() == [-1, 1]
+    assert sch.recovering is True
+    assert (sch.n_backoff, sch.n_steer) == (1, 2)
+    assert f.task.tolist() == [0, 1] and done(w) == []
+
+
+def test_robot_fails_after_max_recoveries_tries():
+    w = make_world([(2.0, 5.0)], max_recoveries=2)
+    f = w.fleet
+    give(w, [0], [(12.0, 5.0)], ids=[8])
+    f.recoveries[0] = 1
+    w.jobs.recover(0, 40.0)
+    assert f.recoveries[0] == 2 and f.task[0] == 8  # the second try: still going
+    w.jobs.recover(0, 60.0)
+    out = done(w)
+    assert [(c.task_id, c.t_done_s, c.ok, c.reason) for c in out] == [
+        (8, 60.0, False, "stuck: no progress for 20 s after 2 tries")
+    ]
+    assert f.task[0] == -1 and f.state[0] == IDLE and w.jobs.failures == 1
+    assert w.schedule.state_list == [IDLE] and w.schedule.n_steer == 0
+
+
+def blocked_pair(w: PymunkWorld, gap_m: float, state_b: int, work_end_b: float = 0.0) -> None:
+    """Robot 0 drives toward robot 1, whose centre is gap_m away, the nearest in its way."""
+    f = w.fleet
+    f.blocker[0], f.near_m[0] = 1, gap_m
+    f.state[1] = state_b
+    f.work_end_s[1] = work_end_b
+
+
+def test_robot_boxed_in_by_one_nearly_done_with_its_work_waits_for_it():
+    w = make_world([(2.0, 5.0), (3.0, 5.0)])
+    f = w.fleet
+    give(w, [0], [(12.0, 5.0)])
+    t = 40.0
+    blocked_pair(w, REACH + 0.29, WORKING, t + TIMEOUT)  # done within the stuck timeout
+    w.jobs.recover(0, t)
+    assert f.t_progress_s[0] == t + TIMEOUT
+    assert (f.recoveries[0], f.replan[0], w.schedule.recovering) == (0, False, False)
+
+
+def test_robot_blocked_by_one_at_long_work_goes_round_it():
+    w = make_world([(2.0, 5.0), (3.0, 5.0), (8.0, 9.0)])
+    f = w.fleet
+    give(w, [0], [(12.0, 5.0)])
+    t = at(w, 40.0)
+    blocked_pair(w, 0.85, WORKING, t + TIMEOUT + 0.5)  # not done within the timeout
+    w.motors.bodies[0].angle = 0.0
+    w.jobs.recover(0, t)
+    assert (f.recoveries[0], f.t_progress_s[0], f.progress_m[0]) == (1, t, np.inf)
+    assert f.replan[0] == False  # noqa: E712 (numpy bool)
+    path = waypoints(w, 0)
+    assert path[0] == 2 + 5j and path[-1] == 12 + 5j
+    assert abs(path[1] - (3 + 6j)) < 1e-9  # DETOUR_M to the left of robot 1 (heading +x)
+
+
+def test_robot_blocked_by_a_driving_one_backs_off_instead_of_going_round():
+    w = make_world([(2.0, 5.0), (3.0, 5.0)], seed=2)
+    f = w.fleet
+    give(w, [0], [(12.0, 5.0)])
+    blocked_pair(w, 0.9 - 1e-6, DRIVING)
+    w.jobs.recover(0, 40.0)
+    assert (f.replan[0], f.recoveries[0], w.follower.last[0]) == (True, 1, -1)
+
+
+def test_a_robot_farther_than_reach_plus_the_trigger_does_not_block():
+    w = make_world([(2.0, 5.0), (3.0, 5.0)], seed=2)
+    f = w.fleet
+    give(w, [0], [(12.0, 5.0)])
+    blocked_pair(w, REACH + 0.3, IDLE)  # exactly reach + YIELD_TRIGGER_M: not blocking
+    w.jobs.recover(0, 40.0)
+    assert (f.replan[0], w.follower.last[0]) == (True, -1)  # backs off, no detour
+    f.replan[0] = False
+    blocked_pair(w, REACH + 0.3, WORKING, 40.0 + 1.0)  # nearly done, but not in the way
+    w.jobs.recover(0, 41.0)
+    assert f.replan[0] == True and f.recoveries[0] == 2  # noqa: E712
+
+
+def test_recovered_robots_start_their_tries_again():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    f, sch = w.fleet, w.schedule
+    f.recoveries[:] = [2, 1]
+    f.stuck_left_m[:] = [3.0, 4.0]
+    sch.recovering = True
+    w.jobs.recovered([0])
+    assert f.recoveries.tolist() == [0, 1]
+    assert f.stuck_left_m.tolist() == [np.inf, 4.0]
+    assert sch.recovering is True
+    w.jobs.recovered([1])
+    assert f.recoveries.tolist() == [0, 0] and sch.recovering is False
+
+
+def test_replan_after_a_back_off_plans_from_where_the_robot_is():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    f, sch = w.fleet, w.schedule
+    give(w, [0], [(12.0, 5.0)])
+    f.replan[0] = True
+    w.jobs.refresh()
+    sch.site_check_s = 50.0
+    assert sch.n_backoff == 1
+    w.jobs.replan(0, (4.0, 6.0), 33.0)
+    assert waypoints(w, 0).tolist() == [4 + 6j, 12 + 5j]
+    assert (f.replan[0], f.progress_m[0], f.t_progress_s[0]) == (False, np.inf, 33.0)
+    assert sch.site_check_s == -np.inf and sch.n_backoff == 0
+
+
+def test_replan_to_a_site_without_a_path_fails_the_task():
+    w = make_world([(2.0, 5.0)], obstacles=ROOM)
+    f = w.fleet
+    give(w, [0], [(8.0, 5.0)], ids=[4])
+    f.site[0] = 15 + 5j  # (as if) walled in since
+    f.replan[0] = True
+    w.jobs.replan(0, (3.0, 4.5), 20.0)
+    why = "unreachable: no path from (3.00, 4.50) after a recovery"
+    assert [(c.task_id, c.t_done_s, c.ok, c.reason) for c in done(w)] == [(4, 20.0, False, why)]
+    assert (f.task[0], f.replan[0]) == (-1, False)
+    assert w.schedule.state_list == [IDLE] and w.schedule.n_steer == 0
+
+
+# ---- make_way, stop_yield ----------------------------------------------------------------
+
+
+def test_idle_robot_steps_aside_of_the_driving_robot_that_asked():
+    w = make_world([(5.0, 5.0), (5.5, 5.2), (12.0, 8.0)])
+    f, sch = w.fleet, w.schedule
+    give(w, [0], [(12.0, 5.0)])
+    z = np.array([5 + 5j, 5.5 + 5.2j, 12 + 8j])
+    h = np.array([1 + 0j, 1j, 1j])
+    v = np.array([1.0, 0.0, 0.0])
+    f.blocker[:] = [1, -1, -1]
+    w.jobs.make_way(np.array([0]), f.blocker, z, h, v, 7.0)
+    assert f.yielding.tolist() == [False, True, False]
+    assert f.yield_until_s[1] == 7.0 + YIELD_TIMEOUT_S
+    assert waypoints(w, 1).tolist() == [5.5 + 5.2j, 5.5 + 6.2j]  # away from robot 0's line
+    assert (sch.n_yield, sch.n_steer, sch.steer_list) == (1, 2, [0, 1])
+
+
+def test_side_step_avoids_robots_near_its_end_and_goes_ahead_along_the_travel():
+    w = make_world([(5.0, 5.0), (6.0, 5.0), (6.0, 6.0), (6.0, 4.0), (5.0, 2.0)])
+    f = w.fleet
+    give(w, [0, 4], [(12.0, 5.0), (12.0, 2.0)])
+    z = np.array([5 + 5j, 6 + 5j, 6 + 6j, 6 + 4j, 5 + 2j])  # 2, 3 stand where 1 would step
+    h = np.array([1 + 0j, 1j, 1j, 1j, 1 + 0j])
+    f.blocker[:] = [1, -1, -1, -1, -1]
+    w.jobs.make_way(np.array([0]), f.blocker, z, h, np.array([0.0, 0, 0, 0, 0]), 1.0)
+    assert waypoints(w, 1).tolist() == [6 + 5j, 7 + 5j]  # v = 0 counts as forward
+    w.jobs.stop_yield(1)
+    assert f.yielding[1] == False and w.follower.last[1] == -1  # noqa: E712
+    w.jobs.make_way(np.array([0]), f.blocker, z, -h, np.array([-1.0, 0, 0, 0, 0]), 2.0)
+    assert waypoints(w, 1).tolist() == [6 + 5j, 7 + 5j]  # reversing along -h: the same way
+
+
+def test_robot_with_no_free_side_step_stays_and_one_asked_twice_moves_once():
+    starts = [(5.0, 5.0), (6.0, 5.0), (6.0, 6.0), (6.0, 4.0), (7.0, 5.0), (7.0, 3.0), (14.0, 8.0)]
+    w = make_world([*starts, (15.0, 8.0)])
+    f = w.fleet
+    give(w, [0, 5, 6], [(12.0, 5.0), (12.0, 3.0), (18.0, 8.0)])
+    z = np.array([5 + 5j, 6 + 5j, 6 + 6j, 6 + 4j, 7 + 5j, 7 + 3j, 14 + 8j, 15 + 8j])
+    h = np.array([1 + 0j, 1j, 1j, 1j, 1j, -1j, 1 + 0j, 1j])
+    f.blocker[:] = [1, -1, -1, -1, -1, 3, 7, -1]
+    w.jobs.make_way(np.array([0]), f.blocker, z, h, np.ones(8), 1.0)
+    assert f.yielding.tolist() == [False] * 8  # left, right and ahead are all taken
+    assert w.follower.last[1] == -1 and w.schedule.n_yield == 0
+    f.blocker[0] = 3  # robots 0 and 5 both ask robot 3, then robot 6 asks robot 7
+    w.jobs.make_way(np.array([0, 5, 6]), f.blocker, z, h, np.ones(8), 1.0)
+    assert f.yielding.tolist() == [False, False, False, True, False, False, False, True]
+    # robot 0 asked first: robot 3 steps away from its line (down), not from robot 5's
+    assert waypoints(w, 3).tolist() == [6 + 4j, 6 + 3j]
+    assert waypoints(w, 7).tolist() == [15 + 8j, 15 + 9j]
+
+
+# ---- under collision avoidance: site taken, give_way, take_slots, step_clear -------------
+
+
+def orca_world(starts, **kw) -> PymunkWorld:
+    w = make_world(starts, avoidance="orca", **kw)
+    assert w.jobs.clear_sites is True
+    return w
+
+
+def test_robot_whose_site_is_taken_by_a_robot_at_work_waits_for_the_first_to_end():
+    w = orca_world([(4.0, 5.0), (10.3, 5.0), (10.0, 5.45), (10.5, 5.0), (10.0, 4.7)])
+    f = w.fleet
+    give(w, [0], [(10.0, 5.0)])
+    f.state[1:] = [WORKING, WORKING, WORKING, DRIVING]
+    f.work_end_s[1:] = [50.0, 45.0, 30.0, 10.0]  # 3 is just 2 radii away; 4 does not work
+    w.jobs.recover(0, 25.0)
+    assert f.t_progress_s[0] == 45.0
+    assert (f.recoveries[0], f.replan[0]) == (0, False)
+
+
+def test_without_avoidance_a_taken_site_does_not_make_a_robot_wait():
+    w = make_world([(4.0, 5.0), (10.3, 5.0)], seed=1)
+    f = w.fleet
+    give(w, [0], [(10.0, 5.0)])
+    f.state[1], f.work_end_s[1] = WORKING, 50.0
+    w.jobs.recover(0, 25.0)
+    assert (f.recoveries[0], f.replan[0], f.t_progress_s[0]) == (1, True, np.inf)
+
+
+def deadlock(w: PymunkWorld, z) -> None:
+    """Robots 0 and 1 drive toward each other (given their tasks at their starts), now at z."""
+    give(w, [0, 1], [(2.0, 5.0), (14.0, 5.0)])
+    w.fleet.last_z_m[:2] = z
+
+
+def test_of_two_deadlocked_robots_the_higher_index_backs_out_past_its_start():
+    w = orca_world([(10.0, 5.0), (4.0, 5.0)])
+    f = w.fleet
+    deadlock(w, [9.9 + 5j, 9 + 5j])
+    t = at(w, 30.0)
+    assert w.jobs.give_way(0, t) is True  # robot 1 gives way: robot 0 waits
+    assert (f.t_progress_s[0], f.recoveries[0], w.follower.last[0]) == (t, 0, 1)
+    w.schedule.resting = True
+    assert w.jobs.give_way(1, t) is True
+    assert f.recoveries.tolist() == [0, 1]
+    assert waypoints(w, 1).tolist() == [9 + 5j, 2.5 + 5j, 14 + 5j]  # 1.5 m past (4, 5)
+    assert (f.progress_m[1], f.t_progress_s[1]) == (np.inf, t)
+    assert w.schedule.resting is False
+
+
+def test_deadlock_needs_a_driving_robot_closer_than_the_deadlock_distance():
+    w = orca_world([(10.0, 5.0), (4.0, 5.0), (7.6, 6.0)])
+    f = w.fleet
+    deadlock(w, [10.5 + 5j, 9 + 5j])  # exactly DEADLOCK_M apart
+    f.last_z_m[2] = 9 + 5.5j  # close, but standing
+    assert w.jobs.give_way(1, 30.0) is False
+    assert w.jobs.give_way(0, 30.0) is False
+    assert f.recoveries.tolist() == [0, 0, 0] and f.t_progress_s[:2].tolist() == [0.0, 0.0]
+
+
+def test_refuge_off_the_free_space_falls_back_to_the_start():
+    w = orca_world([(10.0, 5.0), (1.0, 5.0)])
+    f = w.fleet
+    deadlock(w, [9.9 + 5j, 9 + 5j])
+    assert w.jobs.give_way(1, 30.0) is True
+    assert waypoints(w, 1).tolist() == [9 + 5j, 1 + 5j, 14 + 5j]  # x = -0.5 is off the arena
+    assert f.recoveries[1] == 1
+
+
+def test_no_give_way_while_at_the_refuge_already_or_without_a_way_on():
+    w = orca_world([(10.0, 5.0), (1.0, 5.0)])
+    f = w.fleet
+    deadlock(w, [2.2 + 5j, 1.5 + 5j])  # 0.5 m from its start, which is its refuge
+    assert w.jobs.give_way(1, 30.0) is False
+    f.last_z_m[:2] = [1.7 + 5j, 1.0 + 5j]  # at its start: no direction to back out in
+    assert w.jobs.give_way(1, 30.0) is False
+    assert f.recoveries[1] == 0 and w.follower.last[1] == 1
+
+
+def test_no_give_way_without_a_path_on_to_the_site():
+    w = orca_world([(10.0, 5.0), (4.0, 5.0)], obstacles=ROOM)
+    f = w.fleet
+    deadlock(w, [9.9 + 5j, 9 + 5j])
+    f.site[1] = 15 + 5j  # walled in
+    assert w.jobs.give_way(1, 30.0) is False
+    assert f.recoveries[1] == 0
+
+
+def test_recover_under_avoidance_gives_way_before_counting_a_try():
+    w = orca_world([(10.0, 5.0), (4.0, 5.0)])
+    f = w.fleet
+    deadlock(w, [9.9 + 5j, 9 + 5j])
+    w.jobs.recover(0, 30.0)  # waits for robot 1
+    assert (f.recoveries[0], f.replan[0], f.t_progress_s[0]) == (0, False, 30.0)
+    assert w.schedule.recovering is False
+
+
+SLOT_RING = 2 * 0.25 + 0.15  # m, radius of the ring of service slots
+
+
+def slot(site: complex, k: int) -> complex:
+    return site + SLOT_RING * np.exp(2j * np.pi * k / 6)
+
+
+def service(w: PymunkWorld, z_newcomer: complex, on_site_state: int = WORKING) -> None:
+    """Robot 1 stands on the service point (10, 5); robot 0 drives there, now at z_newcomer."""
+    f = w.fleet
+    give(w, [0], [(10.0, 5.0)])
+    f.state[1] = on_site_state
+    f.last_z_m[:2] = [z_newcomer, 10 + 5j]
+
+
+def test_newcomer_takes_the_nearest_free_service_slot_beside_a_robot_at_work():
+    w = orca_world([(4.0, 5.0), (10.0, 5.0)])
+    f, jobs = w.fleet, w.jobs
+    service(w, 8.5 + 5.2j)
+    w.schedule.resting = True
+    t = at(w, 12.0)
+    jobs.take_slots([0], f.last_z_m, t)
+    k3 = slot(10 + 5j, 3)
+    assert abs(k3 - (9.35 + 5j)) < 1e-12
+    assert f.site[0] == k3
+    assert jobs.slotted.tolist() == [True, False]
+    assert waypoints(w, 0).tolist() == [8.5 + 5.2j, k3]
+    assert (f.progress_m[0], f.t_progress_s[0]) == (np.inf, t)
+    assert w.schedule.resting is False
+    w.schedule.resting = True
+    jobs.take_slots([0], f.last_z_m, t)  # a slot already: nothing changes
+    assert f.site[0] == k3 and w.schedule.resting is True
+
+
+def test_slots_in_an_obstacle_near_a_standing_robot_or_another_robots_goal_are_not_taken():
+    post = [((8.7, 4.8), (9.1, 4.8), (9.1, 5.2), (8.7, 5.2))]  # grown by 0.35 m: covers slot 3
+    w = orca_world([(4.0, 5.6), (10.0, 5.0), (12.0, 8.0), (14.0, 8.0)], obstacles=post)
+    f = w.fleet
+    site = 10 + 5j
+    service(w, 8.5 + 5.6j)
+    f.last_z_m[3] = slot(site, 2) + 0.574 * np.exp(2j * np.pi / 3)  # just too close to slot 2
+    give(w, [2], [(12.0, 2.0)])
+    f.site[2] = slot(site, 4)  # robot 2 drives to slot 4
+    w.jobs.take_slots([0], f.last_z_m, 5.0)
+    assert f.site[0] == slot(site, 1)  # nearest to (8.5, 5.6): 3, 2, 4, then 1
+    assert waypoints(w, 0)[-1] == slot(site, 1)
+
+
+def test_with_no_free_slot_the_newcomer_waits_where_it_is():
+    ring = [(10 + 5j + 0.65 * np.exp(2j * np.pi * k / 6)) for k in range(6)]
+    starts = [(4.0, 5.0), (10.0, 5.0)] + [(p.real, p.imag) for p in ring]
+    w = orca_world(starts)
+    f = w.fleet
+    service(w, 8.5 + 5.2j)
+    f.last_z_m[2:] = ring
+    w.schedule.resting = True
+    w.jobs.take_slots([0], f.last_z_m, 5.0)
+    assert f.site[0] == 10 + 5j and w.jobs.slotted[0] == False  # noqa: E712
+    assert waypoints(w, 0).tolist() == [4 + 5j, 10 + 5j]
+    assert w.schedule.resting is True
+
+
+def test_newcomer_keeps_its_site_while_the_service_point_is_free():
+    w = orca_world([(4.0, 5.0), (10.0, 5.575), (10.0, 4.6)])
+    f = w.fleet
+    give(w, [0, 2], [(10.0, 5.0), (16.0, 4.6)])
+    f.state[1] = WORKING  # 2 radii + SLOT_GAP_M / 2 from the site: not on it
+    f.last_z_m[:3] = [8.5 + 5j, 10 + 5.575j, 10 + 4.6j]  # robot 2 drives: not standing
+    w.schedule.resting = True
+    w.jobs.take_slots([0], f.last_z_m, 5.0)
+    assert f.site[0] == 10 + 5j and w.jobs.slotted[0] == False  # noqa: E712
+    assert w.schedule.resting is True
+
+
+def test_idle_robot_on_the_service_point_steps_clear_of_the_newcomer():
+    w = orca_world([(4.0, 5.0), (10.0, 5.0)])
+    f = w.fleet
+    service(w, 8.5 + 5.0j, on_site_state=IDLE)
+    w.motors.bodies[1].angle = np.pi / 2  # it faces +y: steps to its left, -x
+    t = at(w, 6.0)
+    w.jobs.take_slots([0], f.last_z_m, t)
+    assert f.yielding.tolist() == [False, True]
+    assert f.yield_until_s[1] == t + YIELD_TIMEOUT_S
+    path = waypoints(w, 1)
+    assert path[0] == 10 + 5j and abs(path[1] - (9 + 5j)) < 1e-12
+    assert f.site[0] == 10 + 5j and w.jobs.slotted[0] == False  # noqa: E712
+    assert (w.schedule.n_yield, w.schedule.steer_list) == (1, [0, 1])
+
+
+def test_step_clear_takes_the_free_side_and_a_robot_with_none_stays():
+    w = orca_world([(10.0, 5.0), (10.0, 6.0), (14.0, 5.0), (14.0, 6.0), (14.0, 4.0), (15.0, 5.0)])
+    f = w.fleet
+    for b in w.motors.bodies:
+        b.angle = 0.0
+    w.jobs.step_clear([0, 2], 3.0)  # robot 1 stands on 0's left; 3, 4, 5 round robot 2
+    assert f.yielding.tolist() == [True, False, False, False, False, False]
+    assert f.yield_until_s[0] == 3.0 + YIELD_TIMEOUT_S
+    assert waypoints(w, 0).tolist() == [10 + 5j, 10 + 4j]
+    assert w.follower.last[2] == -1
+
+
+def test_robot_boxed_in_by_robot_0_at_work_waits_for_it_too():
+    w = make_world([(3.0, 5.0), (2.0, 5.0)])
+    f = w.fleet
+    give(w, [1], [(12.0, 5.0)])
+    f.state[0], f.work_end_s[0] = WORKING, 45.0
+    f.blocker[1], f.near_m[1] = 0, 0.85
+    w.jobs.recover(1, 40.0)
+    assert (f.t_progress_s[1], f.recoveries[1], f.replan[1]) == (45.0, 0, False)
+
+
+def test_a_robot_near_its_start_backs_out_the_full_deadlock_distance_past_it():
+    w = orca_world([(10.0, 5.0), (4.0, 5.0)])
+    deadlock(w, [5.5 + 5j, 4.5 + 5j])  # half a metre from where it was given its task
+    assert w.jobs.give_way(1, 30.0) is True
+    assert waypoints(w, 1).tolist() == [4.5 + 5j, 2.5 + 5j, 14 + 5j]
+
+
+def test_giving_way_counts_a_try_and_needs_half_the_deadlock_distance_to_the_refuge():
+    w = orca_world([(10.0, 5.0), (1.0, 5.0)])
+    f = w.fleet
+    deadlock(w, [3.0 + 5j, 1.75 + 5j])  # refuge: its start (1, 5), 0.75 m back
+    f.recoveries[1] = 2
+    assert w.jobs.give_way(1, 30.0) is True
+    assert f.recoveries[1] == 3
+    assert waypoints(w, 1).tolist() == [1.75 + 5j, 1 + 5j, 14 + 5j]
+    f.last_z_m[:2] = [3.2 + 5j, 2.0 + 5j]  # 1 m back
+    assert w.jobs.give_way(1, 31.0) is True
+    assert f.recoveries[1] == 4
+
+
+def test_an_idle_robot_on_the_point_steps_clear_even_beside_one_at_work_at_the_slot_ring():
+    # the service point (10, 1); robot 2 works exactly 2 radii + SLOT_GAP_M / 2 from it
+    w = orca_world([(6.0, 1.0), (10.0, 1.0), (10.0, 1.575)])
+    f = w.fleet
+    give(w, [0], [(10.0, 1.0)])
+    f.state[1:] = [IDLE, WORKING]
+    f.last_z_m[:] = [8.8 + 1j, 10 + 1j, 10 + 1.575j]
+    assert abs(f.last_z_m[2] - f.site[0]) == 2 * 0.25 + 0.5 * 0.15
+    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    assert f.yielding.tolist() == [False, True, False]  # the idle one steps clear
+    assert f.site[0] == 10 + 1j and w.jobs.slotted[0] == False  # noqa: E712
+
+
+def test_every_newcomer_in_one_call_is_answered():
+    # robots 0, 1, 2 come for (4, 8), (10, 8), (16, 8): idle 3, idle 4 and working 5 stand there
+    starts = [(4.0, 2.0), (10.0, 2.0), (16.0, 2.0), (4.0, 8.0), (10.0, 8.0), (16.0, 8.0)]
+    w = orca_world(starts)
+    f = w.fleet
+    give(w, [0, 1, 2], starts[3:])
+    f.state[5] = WORKING
+    f.last_z_m[:3] = [4 + 7j, 10 + 7j, 15.8 + 7j]
+    w.jobs.take_slots([0, 1, 2], f.last_z_m, 4.0)
+    assert f.yielding.tolist() == [False, False, False, True, True, False]
+    assert w.jobs.slotted.tolist() == [False, False, True, False, False, False]
+    assert f.site[2] == slot(16 + 8j, 4)
+
+
+def test_jobs_built_without_avoidance_never_clear_sites_and_track_slots_as_flags():
+    w = make_world([(2.0, 5.0), (4.0, 5.0)])
+    jobs = Jobs(
+        fleet=w.fleet,
+        schedule=w.schedule,
+        clock=w.clock,
+        follower=w.follower,
+        planner=w.planner,
+        controller=w.controller,
+        spatial=w.spatial,
+        exec_time_s=w.exec_time_s_,
+        reach_m=w.reach_m_,
+        bodies=w.motors.bodies,
+        rng=np.random.default_rng(0),
+        keep_lists=True,
+    )
+    assert jobs.clear_sites is False
+    assert jobs.slotted.dtype == bool and jobs.slotted.tolist() == [False, False]
+    assert (jobs.done, jobs.failures) == ([], 0)
+
+
+def test_a_newcomer_without_a_free_slot_or_a_path_to_one_does_not_stop_the_next():
+    pocket = [  # a 0.8 m square hole round (4, 5): its service point fits a robot, no slot does
+        ((3.0, 3.0), (5.0, 3.0), (5.0, 4.6), (3.0, 4.6)),
+        ((3.0, 5.4), (5.0, 5.4), (5.0, 7.0), (3.0, 7.0)),
+        ((3.0, 4.6), (3.6, 4.6), (3.6, 5.4), (3.0, 5.4)),
+        ((4.4, 4.6), (5.0, 4.6), (5.0, 5.4), (4.4, 5.4)),
+    ]
+    starts = [(2.0, 8.0), (15.0, 5.0), (15.8, 1.0), (4.0, 5.0), (10.0, 2.0), (16.0, 2.0)]
+    w = orca_world(starts, obstacles=pocket + ROOM)
+    f = w.fleet
+    f.site[:3] = [4 + 5j, 10 + 2j, 16 + 2j]  # robots 0, 1, 2 come for the points of 3, 4, 5
+    f.state[:3] = DRIVING
+    f.task[:3] = [0, 1, 2]
+    f.state[3:] = WORKING
+    f.last_z_m[:] = [2 + 8j, 15 + 5j, 15.8 + 1j, 4 + 5j, 10 + 2j, 16 + 2j]  # 1 is walled in
+    w.jobs.take_slots([0, 1, 2], f.last_z_m, 4.0)
+    assert w.jobs.slotted.tolist() == [False, False, True, False, False, False]
+    assert f.site[2] == slot(16 + 2j, 4)  # the nearest slot to (15.8, 1) ...
+    assert f.site[:2].tolist() == [4 + 5j, 10 + 2j]  # ... the others keep their points
+
+
+def test_a_slot_exactly_its_room_from_a_standing_robot_is_free():
+    # service point (10, 1); robot 2 stands 2 radii + SLOT_GAP_M / 2 above slot 0
+    w = orca_world([(12.0, 1.0), (10.0, 1.0), (10.65, 1.575)])
+    f = w.fleet
+    give(w, [0], [(10.0, 1.0)])
+    f.state[1:] = [WORKING, IDLE]
+    f.last_z_m[0] = 11.2 + 1j
+    k0 = slot(10 + 1j, 0)
+    assert abs(f.last_z_m[2] - k0) == 2 * 0.25 + 0.5 * 0.15
+    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    assert f.site[0] == k0
+
+
+def test_a_slot_counts_as_another_robots_goal_up_to_a_micrometre_from_it():
+    # service point (1.2, 1.5): slot 0 is (1.85, 1.5); robot 2 drives to a point exactly
+    # 1e-6 m from it (offsets in units of 2^-52 m, so every difference is exact)
+    w = orca_world([(3.0, 1.6), (1.2, 1.5), (4.0, 4.0)])
+    f = w.fleet
+    give(w, [0, 2], [(1.2, 1.5), (6.0, 4.0)])
+    f.state[1] = WORKING
+    k0 = slot(1.2 + 1.5j, 0)
+    f.site[2] = complex(k0.real + 3979479812 * 2.0**-52, k0.imag + 2108589583 * 2.0**-52)
+    assert abs(f.site[2] - k0) == 1e-6
+    f.last_z_m[0] = 2.5 + 1.6j
+    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    assert f.site[0] == slot(1.2 + 1.5j, 1)  # slot 0 is robot 2's: the next nearest
+    w.jobs.slotted[0] = False
+    f.site[0] = 1.2 + 1.5j
+    f.site[2] = k0 + 2e-6  # farther: another point, slot 0 is free
+    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    assert f.site[0] == k0

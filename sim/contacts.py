@@ -55,7 +55,9 @@ class ContactMonitor:
         robot, wall: collision types of robot shapes and of walls and obstacles.
     """
 
-    def __init__(self, space: pymunk.Space, robot: int, wall: int) -> None:
+    def __init__(
+        self, space: pymunk.Space, robot: int, wall: int, buffer: pb.Buffer | None = None
+    ) -> None:
         self.space = space
         self.ptr_ = space._space
         self.touching = 0  # contacts begun and not yet separated
@@ -66,7 +68,8 @@ class ContactMonitor:
         space.on_collision(robot, robot, begin=self._begin_robot, separate=self._separate)
         space.on_collision(robot, wall, begin=self._begin_wall, separate=self._separate)
         lib.cpSpaceSetIterations(self.ptr_, FREE_ITERATIONS)
-        self.buf_ = pb.Buffer()
+        self.buf_ = pb.Buffer() if buffer is None else buffer  # reused: pymunk never frees one
+        self.buf_.clear()
         self.query_ = ffi.new("pmBatchedData *")
         self.query_.fields = pb.ArbiterFields.DISTANCE_1.value
         self.query_.floatArray, self.query_.intArray = self.buf_._float_arr, self.buf_._int_arr

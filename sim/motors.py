@@ -42,6 +42,8 @@ class Motors:
         starts: (m, 2) start positions.
         collision_type: pymunk collision type of the robot shapes.
         headings_rad: (m,) start headings from +x (None: every robot faces +x).
+        buffer: a ``pymunk.batch.Buffer`` to reuse (pymunk never frees a buffer's C arrays, so
+            a world that rebuilds its space hands the same one to each new ``Motors``).
     """
 
     def __init__(
@@ -51,6 +53,7 @@ class Motors:
         starts: np.ndarray,
         collision_type: int,
         headings_rad: np.ndarray | None = None,
+        buffer: pb.Buffer | None = None,
     ) -> None:
         self.space = space
         force_n = drive.mass_kg * drive.traction_mps2
@@ -80,7 +83,8 @@ class Motors:
             space.add(ctrl, pivot, gear)
             self.pivots.append(pivot)
             controls.append(ctrl)
-        self.buf_ = pb.Buffer()
+        self.buf_ = pb.Buffer() if buffer is None else buffer
+        self.buf_.clear()
         pb.get_space_bodies(space, pb.BodyFields.BODY_ID, self.buf_)
         ids = np.frombuffer(self.buf_.int_buf(), dtype=np.uintp).tolist()
         row = {int(i): k for k, i in enumerate(ids)}

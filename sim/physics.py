@@ -43,8 +43,11 @@ past its deadline, or if no path exists, the task is reported as a failed Comple
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pymunk
+import pymunk.batch as pb
 
 from sim.contacts import ContactMonitor
 from sim.control import CONTROLS, ControlParts, control_kind
@@ -97,6 +100,7 @@ class PymunkWorld:
         self.starts_ = np.array([r.start_xy for r in scenario.robots], dtype=float)
         self.headings_ = np.radians([r.heading_deg for r in scenario.robots])
         self.reach_m_ = 2.0 * sp.drive.radius_m + 0.1  # centres closer than this are touching
+        self.buffers_ = (pb.Buffer(), pb.Buffer())  # batch I/O of motors and contacts, reused
         self.reset(np.random.default_rng(0))
 
     def reset(self, rng: np.random.Generator) -> None:
@@ -112,8 +116,8 @@ class PymunkWorld:
             shape = pymunk.Poly(space.static_body, poly)
             shape.friction, shape.collision_type = 0.3, WALL
             space.add(shape)
-        self.motors = Motors(space, drive, self.starts_, ROBOT, self.headings_)
-        self.contacts = ContactMonitor(space, ROBOT, WALL)
+        self.motors = Motors(space, drive, self.starts_, ROBOT, self.headings_, self.buffers_[0])
+        self.contacts = ContactMonitor(space, ROBOT, WALL, self.buffers_[1])
         self.space = space
         self.clock = Clock(self.dt_s)
         self.goal_s_, self.last_ctrl_step_ = 0.0, -1
@@ -289,6 +293,7 @@ class PymunkWorld:
         if yielding:
             self.jobs.refresh()
         self.restore_arrays(self.state_arrays())
+        gc.collect()  # a pymunk space and its collision handlers form a cycle: free the old one now
 
     def _components(self):
         """The world's components with state, by checkpoint prefix."""

@@ -178,3 +178,18 @@ def test_spatial_run_killed_five_times_resumes_to_identical_outputs(tmp_path):
     assert len(set(sets_seen)) == 5, sets_seen  # every kill after new progress
     for name in ("metrics.json", "tasks.csv"):
         assert (out / name).read_bytes() == (straight / name).read_bytes(), name
+
+
+def test_rebuild_frees_the_old_space_and_reuses_the_batch_buffers(tmp_path):
+    """A soak rebuilds the space at every set end: the old space must be freed at once (a
+    pymunk space and its collision handlers form a reference cycle) and the batch buffers,
+    whose C arrays pymunk never frees, reused; otherwise memory grows set by set."""
+    import weakref
+
+    world = PymunkWorld(load_scenario(small_spatial(tmp_path)))
+    world.reset(np.random.default_rng(0))
+    buffers = (world.motors.buf_, world.contacts.buf_)
+    old = weakref.ref(world.space)
+    world.rebuild()
+    assert old() is None
+    assert (world.motors.buf_, world.contacts.buf_) == buffers

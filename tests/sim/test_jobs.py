@@ -888,3 +888,40 @@ def test_a_slot_counts_as_another_robots_goal_up_to_a_micrometre_from_it():
     f.site[2] = k0 + 2e-6  # farther: another point, slot 0 is free
     w.jobs.take_slots([0], f.last_z_m, 4.0)
     assert f.site[0] == k0
+
+
+def test_state_arrays_round_trip_between_sets():
+    world = make_world([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)], control="scalar")
+    jobs = world.jobs
+    jobs.slotted[:] = [False, True, False]
+    jobs.origin[:] = [1 + 2j, 3 + 4j, 5 + 6j]
+    jobs.failures = 7
+    state = jobs.state_arrays()
+    assert state["slotted"].tolist() == [False, True, False]
+    assert state["origin"].tolist() == [1 + 2j, 3 + 4j, 5 + 6j]
+    assert int(state["failures"]) == 7 and state["failures"].dtype == np.int64
+    state["slotted"][0] = True  # a copy: the jobs keep theirs
+    assert not jobs.slotted[0]
+    fresh = make_world([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)], control="scalar").jobs
+    fresh.restore_arrays(state)
+    assert fresh.slotted.tolist() == [True, True, False] and fresh.slotted.dtype == bool
+    assert fresh.origin.tolist() == [1 + 2j, 3 + 4j, 5 + 6j] and fresh.origin.dtype == complex
+    assert fresh.failures == 7 and type(fresh.failures) is int
+    jobs.done.append(Completion(1, 0, 0.0, 1.0, 1.0))
+    with pytest.raises(RuntimeError, match="not handed out"):
+        jobs.state_arrays()
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_refresh_lists_follows_the_fleet_state(control):
+    world = make_world([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0), (11.0, 2.0)], control=control)
+    f, sch = world.fleet, world.schedule
+    f.state[:] = [IDLE, DRIVING, WORKING, IDLE]
+    f.yielding[:] = [False, False, False, True]
+    sch.state_list, sch.steer_list = ["stale"], ["stale"]
+    world.jobs.refresh_lists()
+    if control == "scalar":  # the scalar control reads the lists
+        assert sch.state_list == [IDLE, DRIVING, WORKING, IDLE]
+        assert sch.steer_list == [1, 3]
+    else:  # the array control keeps none
+        assert sch.state_list == ["stale"] and sch.steer_list == ["stale"]

@@ -908,8 +908,21 @@ def test_state_arrays_round_trip_between_sets():
     assert fresh.origin.tolist() == [1 + 2j, 3 + 4j, 5 + 6j] and fresh.origin.dtype == complex
     assert fresh.failures == 7 and type(fresh.failures) is int
     jobs.done.append(Completion(1, 0, 0.0, 1.0, 1.0))
-    with pytest.raises(RuntimeError, match="not handed out"):
+    with pytest.raises(
+        RuntimeError, match="^jobs state requested with completions not handed out$"
+    ):
         jobs.state_arrays()
+    # restored arrays take the jobs' dtypes whatever they come as
+    fresh.restore_arrays(
+        {
+            "slotted": np.array([1, 0, 0]),
+            "origin": np.array([1.0, 2.0, 3.0]),
+            "failures": np.array(2.0),
+        }
+    )
+    assert fresh.slotted.dtype == bool and fresh.slotted.tolist() == [True, False, False]
+    assert fresh.origin.dtype == complex and fresh.origin.tolist() == [1, 2, 3]
+    assert fresh.failures == 2 and type(fresh.failures) is int
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])

@@ -279,8 +279,9 @@ def parse_faults(v: Validator, doc: dict, names: list[str]) -> FaultSpec:
 
 
 def _mttf(v: Validator, table: dict, key: str, where: str) -> float:
-    """A mean time to failure: a number > 0, or the string "inf" (never breaks)."""
-    if table[key] == "inf":
+    """A mean time to failure: a number > 0, or inf / "inf" (never breaks)."""
+    val = table[key]
+    if val == "inf" or (isinstance(val, float) and val == math.inf):
         return math.inf
     return v.number(table, key, where, lo=0.0, lo_open=True)
 

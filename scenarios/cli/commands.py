@@ -268,6 +268,7 @@ def cmd_soak(args) -> int:
         args.cost,
         args.seed,
         progress=not (args.json or args.no_progress),
+        faults=args.faults,
     )
     if args.json:
         print(dumps(result))

@@ -88,6 +88,46 @@ def int_at_least(lowest: int):
 
 
 _positive_int = int_at_least(1)
+
+FAULT_WORDS = {
+    "mttf": "faults.mttf_s",
+    "repair": "faults.repair_s",
+    "permanent": "faults.p_permanent",
+    "policy": "faults.policy",
+}
+
+
+def fault_option(text: str) -> tuple[tuple[str, object], ...]:
+    """``--faults mttf=600,repair=60,permanent=0.01,policy=requeue`` as scenario overrides."""
+    out = []
+    for part in text.split(","):
+        key, eq, value = part.partition("=")
+        key = key.strip()
+        if not eq or key not in FAULT_WORDS:
+            raise argparse.ArgumentTypeError(
+                f"{part!r}: expected KEY=VALUE with KEY one of {', '.join(FAULT_WORDS)}"
+            )
+        if key == "policy":
+            if value not in ("requeue", "drop"):
+                raise argparse.ArgumentTypeError(
+                    f"policy={value!r}: unknown policy; one of ['requeue', 'drop']"
+                )
+            out.append((FAULT_WORDS[key], value))
+            continue
+        try:
+            number = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{key}={value!r}: not a number") from None
+        if key == "mttf" and not number > 0:
+            raise argparse.ArgumentTypeError(f"mttf={value}: must be > 0 (s)")
+        if key == "repair" and not number >= 0:
+            raise argparse.ArgumentTypeError(f"repair={value}: must be >= 0 (s)")
+        if key == "permanent" and not 0 <= number <= 1:
+            raise argparse.ArgumentTypeError(f"permanent={value}: probability outside [0, 1]")
+        out.append((FAULT_WORDS[key], number))
+    return tuple(out)
+
+
 _non_negative_int = int_at_least(0)
 
 
@@ -294,6 +334,15 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--allocator", type=_allocator_name, default="market", help="(default market)")
     k.add_argument("--cost", choices=COSTS, default="distance", help="bid cost model")
     k.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
+    k.add_argument(
+        "--faults",
+        type=fault_option,
+        default=(),
+        metavar="KEY=VALUE,...",
+        help="robot faults on top of the scenario's [faults] table: mttf=S (mean time to "
+        "failure per robot, s), repair=S (repair time, s), permanent=P (share of failures "
+        "for good), policy=requeue|drop (the broken robot's task); e.g. mttf=600,repair=60",
+    )
     k.add_argument("--json", action="store_true", help="print one JSON object")
     k.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 

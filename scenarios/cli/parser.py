@@ -388,16 +388,19 @@ def add_study_parser(subparsers) -> argparse.ArgumentParser:
 
     p = subparsers.add_parser(
         "study",
-        help="a bundled study (several sweeps read together): refusal",
+        help="a bundled study (several sweeps read together): refusal, faults",
         description="refusal: where ExpT-MRTA's refusals cost completion and what the reserve "
         "rule wins back. Runs the bundled sweeps refusal_load (abstract paper scenario, offered "
         "load 0.45-2.4 and no overload), refusal_frontier (space against completion over delta_u "
         "x coverage_k) and refusal_spatial (paper_spatial, abstract and distance bids), 10 seeds "
         "each, into OUT/<sweep>/ (resumable: re-run to finish an interrupted study), then writes "
         "OUT/study.json, study.md, load.png, losses.png, frontier.png and spatial.png. About 5-10 "
-        "minutes on two cores.",
+        "minutes on two cores. faults: completion of market, QL-MRTA, ExpT-MRTA, greedy and "
+        "CBBA against the robots' mean time to failure (the bundled sweep faults, abstract paper "
+        "scenario, 5 seeds, MTTF inf = no faults as the reference) into OUT/faults/, then "
+        "OUT/study.json, study.md and faults.png.",
     )
-    p.add_argument("name", choices=sorted(STUDIES), help="which study (refusal)")
+    p.add_argument("name", choices=sorted(STUDIES), help="which study (refusal, faults)")
     p.add_argument(
         "--out", type=Path, default=None, help="output folder (default renders/study/<name>/)"
     )

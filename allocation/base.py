@@ -102,6 +102,11 @@ class BaseAllocator:
     def experience_snapshot(self) -> None:
         return None
 
+    def task_abandoned(self, robot: int, task_type: int) -> None:
+        """Robot ``robot`` broke down and gave up its ``task_type`` task (``sim.faults``): the
+        loop calls this, if the allocator has it, after the round in which it happened. The
+        task itself is re-announced or lost by the loop; nothing to do by default."""
+
     def bids(self, state: WorldState, costs: np.ndarray) -> np.ndarray:
         """The market's bids: every free robot bids its cost (inf where it cannot)."""
         return np.where(state.free[:, None], costs, np.inf)

@@ -17,14 +17,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from allocation.costs import CostModel
+from learning.fates import ABANDON_ENDS, FATES, FateError, FateLedger
 from learning.rounds import Decide, drain, play_round
 from sim.scenario import Scenario
 from sim.tasks import Batch, TaskStream
-from sim.world import Completion, World, WorldState
+from sim.world import Abandon, Completion, World, WorldState, take_abandoned
 
 
 class InvariantError(RuntimeError):
     """A run broke one of the invariants every run must keep."""
+
+
+FATE_COLUMNS = ("task_id", "fate", "abandons", "announced_s")
 
 
 LOSS_CAUSES = ("no_capable_free", "capable_taken", "refused", "waited")
@@ -34,6 +38,12 @@ LOSS_CAUSES = ("no_capable_free", "capable_taken", "refused", "waited")
 - ``capable_taken``: every free capable robot was given another task of the same round;
 - ``refused``: every free capable robot left over had refused the type;
 - ``waited``: a free, willing, capable robot was left over but did not bid (QL-MRTA's wait).
+
+A broken robot (``sim.faults``) is not free: a task only broken robots could do is lost as
+``no_capable_free``. A re-announced task (its robot broke) that nobody takes is counted here once,
+in the round it was lost; tasks dropped under the ``drop`` policy, or still waiting to be
+re-announced when the set ended, were not lost at an announcement and are counted in
+``PhaseRecord.abandon_ends`` instead (``learning.fates``).
 """
 
 
@@ -76,6 +86,14 @@ class PhaseRecord:
     lost_causes: np.ndarray = field(
         default_factory=lambda: np.zeros(len(LOSS_CAUSES), dtype=np.int64)
     )  # tasks lost, per LOSS_CAUSES
+    fates: np.ndarray = field(
+        default_factory=lambda: np.zeros(len(FATES), dtype=np.int64)
+    )  # tasks per final fate (learning.fates.FATES), always counted
+    abandon_ends: np.ndarray = field(
+        default_factory=lambda: np.zeros(len(ABANDON_ENDS), dtype=np.int64)
+    )  # abandonments re-announced, dropped, lost at the set's end
+    abandons: list[Abandon] = field(default_factory=list)  # kept when keep=True
+    fate_rows: list[tuple[int, str, int, float]] = field(default_factory=list)  # FATE_COLUMNS
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.task_ids:
@@ -96,6 +114,8 @@ class RunRecord:
     trace_space: list[np.ndarray] = field(default_factory=list)  # (m,) per round
     trace_u: list[np.ndarray] = field(default_factory=list)  # (m, n) per round (ExpT only)
     trace_behaviour: list[np.ndarray] = field(default_factory=list)
+    availability: np.ndarray | None = None  # (m,) share of the run each robot was not broken
+    failures: np.ndarray | None = None  # (m,) breakdowns per robot (None: no faults)
 
 
 def protocol_sets(scenario: Scenario) -> tuple[list[int], list[int]]:
@@ -149,6 +169,8 @@ def run_protocol(
         start_phase, start_pos, record = resume
     interval = scenario.stream.announce_interval_s
     capable = scenario.capability_matrix()
+    policy = scenario.faults.policy
+    abandoned_hook = getattr(allocator, "task_abandoned", None)
     rounds = len(record.trace_time)
     for pi, (phase_name, set_indices) in enumerate(phases):
         if pi < start_phase:
@@ -160,8 +182,11 @@ def run_protocol(
                 continue
             allocator.begin_set(s, learning=phase_name == "learn")
             ids, assigned, bids, done = [], [], [], []
+            ledger = FateLedger(policy, f"{phase_name} phase, set {s}")
             for batch in stream.batches(s):
+                batch = ledger.with_requeued(batch)
                 played = play_round(world, batch, cost_model, decide, interval, recorder)
+                _ledger_round(ledger, played, scenario, abandoned_hook)
                 ids.append(batch.ids)
                 assigned.append(played.assignment)
                 bids.append(played.won_bid)
@@ -171,14 +196,27 @@ def run_protocol(
                     _trace(record, allocator, rounds)
                 if on_round is not None:
                     on_round()
-            done.extend(drain(world, recorder))
+            drained = drain(world, recorder)
+            _ledger_events(ledger, drained, take_abandoned(world), scenario, abandoned_hook)
+            done.extend(drained)
             allocator.end_set()
-            _check_set(phase_name, s, ids, assigned, done, allocator, scenario)
+            _check_set(phase_name, s, ids, assigned, done, allocator, scenario, ledger)
+            try:
+                counts = ledger.close()
+            except FateError as err:
+                raise InvariantError(str(err)) from None
+            phase.fates += np.array([counts[f] for f in FATES], dtype=np.int64)
+            phase.abandon_ends += np.array([ledger.ends[e] for e in ABANDON_ENDS], np.int64)
             if keep:
                 phase.task_ids += ids
                 phase.assigned += assigned
                 phase.bids += bids
                 phase.completions += done
+                phase.abandons += ledger.abandons
+                phase.fate_rows += [
+                    (tid, info.fate, info.abandons, info.announced_s)
+                    for tid, info in ledger.tasks.items()
+                ]
             else:
                 phase.announced += sum(a.size for a in assigned)
                 phase.allocated += sum(int((a >= 0).sum()) for a in assigned)
@@ -187,7 +225,35 @@ def run_protocol(
                 on_set_end(pi, pos + 1, record)
     record.space_final = allocator.learning_space().copy()
     record.willing_final = allocator.willing().copy()
+    faults = getattr(world, "faults", None)
+    if faults is not None:
+        record.availability = faults.availability(float(world.snapshot().time_s))
+        record.failures = faults.failures.copy()
     return record
+
+
+def _ledger_round(ledger: FateLedger, played, scenario: Scenario, hook) -> None:
+    """Tell the set's ledger what one round announced, allocated, completed and abandoned."""
+    try:
+        ledger.announce(played.batch, played.state.time_s)
+        ledger.allocate(played.batch.ids, played.assignment)
+    except FateError as err:
+        raise InvariantError(str(err)) from None
+    _ledger_events(ledger, played.done, played.abandoned, scenario, hook)
+
+
+def _ledger_events(ledger: FateLedger, done, abandoned, scenario: Scenario, hook) -> None:
+    """Completions and abandonments into the ledger; the allocator hears of each abandonment
+    (``task_abandoned(robot, task_type)``, if it has that hook)."""
+    try:
+        for c in done:
+            ledger.complete(c)
+        for a in abandoned:
+            ledger.abandon(a)
+            if hook is not None:
+                hook(a.robot, ledger.tasks[a.task_id].type)
+    except FateError as err:
+        raise InvariantError(str(err)) from None
 
 
 def _checked(allocator, capable: np.ndarray, lost_causes: np.ndarray) -> Decide:
@@ -198,7 +264,7 @@ def _checked(allocator, capable: np.ndarray, lost_causes: np.ndarray) -> Decide:
         allowed = allocator.allowed().copy()
         willing = allocator.willing().copy()
         assignment, bids = allocator.allocate(state, batch, costs)
-        _check_assignment(assignment, bids, batch, state.free, allowed, capable)
+        _check_assignment(assignment, bids, batch, state.free, allowed, capable, state.broken)
         won = assignment >= 0
         if not won.all():
             taken = np.zeros(state.free.size, dtype=bool)
@@ -218,12 +284,15 @@ def _trace(record: RunRecord, allocator, rounds: int) -> None:
         record.trace_behaviour.append(snap[1])
 
 
-def _check_assignment(assignment, bids, batch, free, allowed, capable) -> None:
+def _check_assignment(assignment, bids, batch, free, allowed, capable, broken=None) -> None:
     robots = assignment[assignment >= 0]
     if not np.isfinite(bids[robots, np.flatnonzero(assignment >= 0)]).all():
         raise InvariantError("a robot was given a task it did not bid for")
     if np.unique(robots).size != robots.size:
         raise InvariantError("a robot was given more than one task in a round")
+    if broken is not None and broken[robots].any():
+        bad = int(robots[broken[robots]][0])
+        raise InvariantError(f"broken robot {bad} was given a task")
     if not free[robots].all():
         raise InvariantError("a busy robot was given a task")
     types = batch.types[assignment >= 0]
@@ -233,18 +302,22 @@ def _check_assignment(assignment, bids, batch, free, allowed, capable) -> None:
         raise InvariantError("a robot was given a task type it has refused")
 
 
-def _check_set(name: str, s: int, ids, assigned, done, allocator, scenario) -> None:
+def _check_set(name: str, s: int, ids, assigned, done, allocator, scenario, ledger=None) -> None:
     """Per-set invariants: each announced task allocated or lost once; every allocated task
-    completed or failed with a reason; learning spaces equal 2 * n**h of the task sets."""
+    completed or failed with a reason; learning spaces equal 2 * n**h of the task sets.
+
+    With abandoned tasks (robot faults) a task may be announced and allocated more than once:
+    the two first checks are the ledger's then (``learning.fates``, at ``ledger.close()``)."""
     all_ids = np.concatenate(ids) if ids else np.zeros(0, dtype=int)
     taken = np.concatenate(assigned) >= 0 if assigned else np.zeros(0, dtype=bool)
-    if np.unique(all_ids).size != all_ids.size:
-        raise InvariantError(f"{name} phase, set {s}: a task was announced twice")
-    finished = sorted(c.task_id for c in done)
-    if finished != sorted(all_ids[taken].tolist()):
-        raise InvariantError(
-            f"{name} phase, set {s}: allocated tasks and completed or failed tasks differ"
-        )
+    if ledger is None or not ledger.abandons:
+        if np.unique(all_ids).size != all_ids.size:
+            raise InvariantError(f"{name} phase, set {s}: a task was announced twice")
+        finished = sorted(c.task_id for c in done)
+        if finished != sorted(all_ids[taken].tolist()):
+            raise InvariantError(
+                f"{name} phase, set {s}: allocated tasks and completed or failed tasks differ"
+            )
     if any(not c.ok and not c.reason for c in done):
         raise InvariantError(f"{name} phase, set {s}: a task failed without a reason")
     if allocator.learns:
@@ -280,6 +353,15 @@ def record_arrays(record: RunRecord) -> dict[str, np.ndarray]:
         out[f"rec/{name}/assigned"] = assigned
         out[f"rec/{name}/bids"] = np.concatenate(phase.bids) if phase.bids else np.zeros(0)
         out[f"rec/{name}/lost_causes"] = phase.lost_causes
+        out[f"rec/{name}/fates"] = phase.fates
+        out[f"rec/{name}/abandon_ends"] = phase.abandon_ends
+        for col in ("task_id", "robot", "t_alloc_s", "t_s", "bid"):
+            out[f"rec/{name}/a_{col}"] = np.array([getattr(a, col) for a in phase.abandons], float)
+        rows = phase.fate_rows
+        out[f"rec/{name}/f_task_id"] = np.array([r[0] for r in rows], dtype=np.int64)
+        out[f"rec/{name}/f_fate"] = np.array([r[1] for r in rows], dtype=str)
+        out[f"rec/{name}/f_abandons"] = np.array([r[2] for r in rows], dtype=np.int64)
+        out[f"rec/{name}/f_announced_s"] = np.array([r[3] for r in rows], dtype=float)
         for col in COMPLETION_COLUMNS:
             values = [getattr(c, col) for c in phase.completions]
             out[f"rec/{name}/c_{col}"] = np.array(values, dtype=str if col == "reason" else float)
@@ -328,6 +410,33 @@ def record_from_arrays(arrays: dict[str, np.ndarray]) -> RunRecord:
         causes = arrays.get(f"rec/{name}/lost_causes")  # absent in older checkpoints
         if causes is not None:
             phase.lost_causes = np.asarray(causes, dtype=np.int64)
+        if f"rec/{name}/fates" in arrays:  # absent in checkpoints older than faults
+            phase.fates = np.asarray(arrays[f"rec/{name}/fates"], dtype=np.int64)
+            phase.abandon_ends = np.asarray(arrays[f"rec/{name}/abandon_ends"], dtype=np.int64)
+            a = {
+                c: arrays[f"rec/{name}/a_{c}"]
+                for c in ("task_id", "robot", "t_alloc_s", "t_s", "bid")
+            }
+            phase.abandons = [
+                Abandon(
+                    int(a["task_id"][k]),
+                    int(a["robot"][k]),
+                    float(a["t_alloc_s"][k]),
+                    float(a["t_s"][k]),
+                    float(a["bid"][k]),
+                )
+                for k in range(a["task_id"].size)
+            ]
+            phase.fate_rows = [
+                (int(t), str(f), int(n), float(at))
+                for t, f, n, at in zip(
+                    arrays[f"rec/{name}/f_task_id"].tolist(),
+                    arrays[f"rec/{name}/f_fate"].tolist(),
+                    arrays[f"rec/{name}/f_abandons"].tolist(),
+                    arrays[f"rec/{name}/f_announced_s"].tolist(),
+                    strict=True,
+                )
+            ]
         phases.append(phase)
     return RunRecord(
         phases[0],

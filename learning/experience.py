@@ -80,6 +80,48 @@ class ExperienceModel:
                 knows[not_refused], B1_EAGER_HESITANT, B0_REGULAR
             )
 
+    def robot_state(self, j: int, i: int) -> tuple:
+        """Robot j's experience of type i: (eta, mu, v, v_sum, count, behaviour)."""
+        return (
+            self.eta_[j, i],
+            self.mu_[j, i],
+            self.v_[j, i],
+            self.v_sum_[j, i],
+            self.count_[j, i],
+            self.behaviour_[j, i],
+        )
+
+    def set_robot_state(self, j: int, i: int, state: tuple) -> None:
+        """Inverse of :meth:`robot_state`."""
+        (
+            self.eta_[j, i],
+            self.mu_[j, i],
+            self.v_[j, i],
+            self.v_sum_[j, i],
+            self.count_[j, i],
+            self.behaviour_[j, i],
+        ) = state
+
+    def replay(self, j: int, i: int, state: tuple, auctions) -> tuple:
+        """Robot j's (type i) experience after the T_i ``auctions`` (pairs (bidders, won))
+        observed from ``state``, with the same arithmetic as :meth:`observe_auction`; the model
+        itself is not changed."""
+        eta, mu, v, v_sum, count, behaviour = state
+        for n_bidders, won in auctions:
+            mu = mu + 1.0 / n_bidders
+            if won:
+                eta = eta + 1.0
+            v = float(tep(np.array([eta]), np.array([mu]))[0])
+            v_sum = v_sum + v
+            count = count + 1
+            knows = abs(v - 1.0) >= self.spec.delta_v
+            if self.spec.sticky_b1:
+                if behaviour == B0_REGULAR and knows:
+                    behaviour = B1_EAGER_HESITANT
+            elif behaviour != B2_REFUSED:
+                behaviour = B1_EAGER_HESITANT if knows else B0_REGULAR
+        return eta, mu, v, v_sum, count, behaviour
+
     def refusals(self) -> list[tuple[int, int]]:
         """Apply behaviour 2 where it is due; return the new (robot, type) refusals.
 

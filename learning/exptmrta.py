@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from allocation.auction import solve_priority_assignment
-from learning.experience import B1_EAGER_HESITANT, ExperienceModel
+from learning.experience import B1_EAGER_HESITANT, B2_REFUSED, ExperienceModel
 from learning.qlmrta import QLAllocator
 from learning.qtable import DO
 from sim.tasks import Batch
@@ -27,6 +27,9 @@ class ExpTAllocator(QLAllocator):
         self.experience_ = ExperienceModel(self.capable, self.scenario.experience)
         self.refusal_log_: list[tuple[int, int, int]] = []  # (auction count, robot, type)
         self.auctions_ = 0
+        # robot -> (type, experience before the round it won in, that round's T_i auctions it
+        # bid in as (bidders, won)): what task_abandoned needs to withhold the win
+        self.credit_: dict[int, tuple[int, tuple, list[tuple[int, bool]]]] = {}
         super().reset(rng)
 
     def willing(self) -> np.ndarray:
@@ -81,13 +84,48 @@ class ExpTAllocator(QLAllocator):
         u = float(self.experience_.u_[j, task_type])
         return u if action == DO else 1.0 / u
 
+    def allocate(
+        self, state: WorldState, batch: Batch, costs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        for j in np.flatnonzero(state.free).tolist():  # its last task ended: nothing to withhold
+            self.credit_.pop(j, None)
+        return super().allocate(state, batch, costs)
+
     def _after_auction(self, batch: Batch, bids: np.ndarray, assignment: np.ndarray) -> None:
         if not self.learner_.learning_:
             return
+        exp = self.experience_
+        won = {int(assignment[t]): int(batch.types[t]) for t in np.flatnonzero(assignment >= 0)}
+        before = {j: exp.robot_state(j, i) for j, i in won.items()}
+        seen: dict[int, list[tuple[int, bool]]] = {j: [] for j in won}
         for t in range(len(batch)):
             bidders = np.flatnonzero(np.isfinite(bids[:, t]))
-            self.experience_.observe_auction(int(batch.types[t]), bidders, int(assignment[t]))
+            i, winner = int(batch.types[t]), int(assignment[t])
+            exp.observe_auction(i, bidders, winner)
             self.auctions_ += 1
+            for j in bidders.tolist():
+                if won.get(j) == i:
+                    seen[j].append((bidders.size, winner == j))
+        for j, i in won.items():
+            self.credit_[j] = (i, before[j], seen[j])
+
+    def task_abandoned(self, robot: int, task_type: int) -> None:
+        """Robot ``robot`` broke before finishing its ``task_type`` task: its experience of the
+        type becomes what it would be had it bid in that round and not won (eta without the
+        win, the TEP values of the round recomputed, the TEM with them). A refusal that was
+        made meanwhile stands. Nothing to withhold for a win on a test set (experience is
+        frozen) or in the reserve rule's second auction (not credited)."""
+        super().task_abandoned(robot, task_type)
+        credit = self.credit_.pop(robot, None)
+        if credit is None or credit[0] != task_type:
+            return
+        i, before, auctions = credit
+        exp = self.experience_
+        refused = exp.behaviour_[robot, i] == B2_REFUSED
+        withheld = [(n, False) for n, _ in auctions]
+        exp.set_robot_state(robot, i, exp.replay(robot, i, before, withheld))
+        if refused:
+            exp.behaviour_[robot, i] = B2_REFUSED
 
     def _restructure(self) -> None:
         for j, i in self.experience_.refusals():

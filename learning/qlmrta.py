@@ -75,6 +75,11 @@ class QLAllocator:
         """Per-robot learning-space dimension 2 * n_j**h for the current alphabets."""
         return self.learner_.learning_space()
 
+    def task_abandoned(self, robot: int, task_type: int) -> None:
+        """Robot ``robot`` broke down and gave up its task: it is no longer busy with a low one
+        (no penalty for high tasks lost while it is broken). Its Q-learning is unchanged."""
+        self.busy_low_[robot] = False
+
     # -- hooks ExpT-MRTA overrides -----------------------------------------------------------
     def _bid_divisor(self) -> np.ndarray:
         return np.ones(self.capable.shape)

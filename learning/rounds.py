@@ -12,13 +12,13 @@ where ``decide`` resolves the agents' bid/wait actions) all play their rounds wi
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from allocation.costs import CostModel
 from sim.tasks import Batch
-from sim.world import Completion, World, WorldState
+from sim.world import Abandon, Completion, World, WorldState, take_abandoned
 
 Decide = Callable[[WorldState, Batch, np.ndarray], tuple[np.ndarray, np.ndarray]]
 """``decide(state, batch, costs) -> (assignment, bids)``: ``assignment[t]`` is the robot given
@@ -36,6 +36,7 @@ class Round:
     bids: np.ndarray  # (m, k) from ``decide``
     won_bid: np.ndarray  # (k,) cost of the winner per task, NaN if lost
     done: list[Completion]  # tasks that ended during the interval
+    abandoned: list[Abandon] = field(default_factory=list)  # given up: their robot broke
 
 
 def play_round(
@@ -65,16 +66,18 @@ def play_round(
     won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
     world.apply(batch, assignment, won_bid)
     done = world.advance(interval_s)
+    abandoned = take_abandoned(world)
     if recorder is not None:
         recorder.announce(state.time_s, batch.ids, batch.types, batch.high, batch.sites)
         recorder.allocate(state.time_s, batch.ids, assignment)
         for c in done:
             recorder.done(c.task_id, c.t_done_s)
-    return Round(state, batch, costs, assignment, bids, won_bid, done)
+    return Round(state, batch, costs, assignment, bids, won_bid, done, abandoned)
 
 
 def drain(world: World, recorder=None) -> list[Completion]:
-    """Finish every running task (the end of a set) and tell the recorder."""
+    """Finish every running task (the end of a set) and tell the recorder. Tasks abandoned
+    on the way (a robot broke) are left in the world for ``sim.world.take_abandoned``."""
     done = world.drain()
     if recorder is not None:
         for c in done:

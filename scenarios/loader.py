@@ -18,9 +18,12 @@ from pathlib import Path
 from typing import Any
 
 from sim.scenario import (
+    FAULT_POLICIES,
     REFUSAL_RULES,
+    REPAIR_KINDS,
     DriveSpec,
     ExperienceSpec,
+    FaultSpec,
     LearningSpec,
     RobotSpec,
     Scenario,
@@ -112,7 +115,8 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str = "") -> Scenario:
     """Validate a parsed TOML document and build the Scenario."""
     v = Validator(source)
-    v.keys(doc, "", {"scenario", "robots", "stream", "learning", "experience", "spatial"})
+    sections = {"scenario", "robots", "stream", "learning", "experience", "spatial", "faults"}
+    v.keys(doc, "", sections)
     head = v.table(doc, "scenario", required=True)
     v.keys(head, "scenario", {"name", "description", "task_types", "exec_time_s"})
     name = v.string(head, "scenario.name")
@@ -214,6 +218,8 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
             "experience.refusal", f"unknown rule {e.refusal!r}{hint}; one of {list(REFUSAL_RULES)}"
         )
 
+    faults = parse_faults(v, doc, [r.name for r in robots])
+
     spatial = None
     if "spatial" in doc:
         from scenarios.spatial_schema import parse_spatial
@@ -229,9 +235,55 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
         learning=learning,
         experience=experience,
         spatial=spatial,
+        faults=faults,
         source=source,
         source_sha256=sha256,
     )
+
+
+FAULT_KEYS = {"mttf_s", "mttf_by_robot", "repair_s", "repair", "p_permanent", "policy"}
+
+
+def parse_faults(v: Validator, doc: dict, names: list[str]) -> FaultSpec:
+    """The ``[faults]`` table (every key optional; absent or empty: no robot breaks)."""
+    table = v.table(doc, "faults")
+    v.keys(table, "faults", FAULT_KEYS)
+    values: dict[str, Any] = {}
+    if "mttf_s" in table:
+        values["mttf_s"] = _mttf(v, table, "mttf_s", "faults.mttf_s")
+    if "mttf_by_robot" in table:
+        own = v.table(table, "mttf_by_robot", where="faults.mttf_by_robot")
+        pairs = []
+        for name in own:
+            where = f"faults.mttf_by_robot.{name}"
+            if name not in names:
+                v.fail(where, f"no robot named {name!r}{did_you_mean(name, names)}")
+            pairs.append((name, _mttf(v, own, name, where)))
+        values["mttf_by_robot"] = tuple(pairs)
+    if "repair_s" in table:
+        values["repair_s"] = v.number(table, "repair_s", "faults.repair_s", lo=0.0)
+    if "p_permanent" in table:
+        p = v.number(table, "p_permanent", "faults.p_permanent", lo=0.0)
+        v.check(p <= 1.0, "faults.p_permanent", f"probability {p} outside [0, 1]")
+        values["p_permanent"] = p
+    for key, options in (("repair", REPAIR_KINDS), ("policy", FAULT_POLICIES)):
+        if key in table:
+            word = table[key]
+            if not isinstance(word, str):
+                v.fail(f"faults.{key}", f"must be a string, got {_kind(word)}")
+            if word not in options:
+                hint = did_you_mean(word, options)
+                v.fail(f"faults.{key}", f"unknown {key} {word!r}{hint}; one of {list(options)}")
+            values[key] = word
+    return FaultSpec(**values)
+
+
+def _mttf(v: Validator, table: dict, key: str, where: str) -> float:
+    """A mean time to failure: a number > 0, or inf / "inf" (never breaks)."""
+    val = table[key]
+    if val == "inf" or (isinstance(val, float) and val == math.inf):
+        return math.inf
+    return v.number(table, key, where, lo=0.0, lo_open=True)
 
 
 def did_you_mean(word: str, options) -> str:

@@ -18,7 +18,7 @@ from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import SpatialSpec
 from sim.tasks import Batch
-from sim.world import Completion
+from sim.world import Abandon, Completion
 
 BACKOFF_S = 1.5  # a stuck robot reverses on a random arc this long, then replans
 RECOVERED_M = 5.0  # this much closer to its site than where it got stuck, its tries start again
@@ -90,6 +90,7 @@ class Jobs:
         self.origin = fleet.site.copy()  # where each robot was given its task (x + iy), m
         self.done: list[Completion] = []
         self.failures = 0
+        self.broken = np.zeros(len(fleet.state), dtype=bool)  # set by the world (sim.faults)
 
     def assign(
         self, batch: Batch, assignment: np.ndarray, bids: np.ndarray, won: np.ndarray, xy_m
@@ -221,6 +222,21 @@ class Jobs:
         if refresh:
             self.refresh()
 
+    def abandon(self, j: int, t: float) -> Abandon:
+        """Robot j broke down (``sim.faults``): it gives up its task where it is and stands."""
+        f = self.fleet
+        out = Abandon(int(f.task[j]), j, float(f.t_alloc_s[j]), t, float(f.bid[j]))
+        f.task[j] = -1
+        f.state[j] = IDLE
+        f.stuck_left_m[j] = np.inf
+        f.replan[j] = False
+        f.backoff_until_s[j] = -np.inf
+        f.t_progress_s[j] = np.inf
+        f.yielding[j] = False
+        self.follower.clear(j)
+        self.refresh()
+        return out
+
     def check_stuck(self, go: np.ndarray, t: float) -> None:
         """Recover the robots ``go`` without progress for ``stuck_timeout_s``; schedule the next
         check."""
@@ -307,7 +323,7 @@ class Jobs:
         rows, paths = [], []
         for j in pushers.tolist():
             b = int(blocker[j])
-            if f.yielding[b]:  # asked by another robot in this period
+            if f.yielding[b] or self.broken[b]:  # asked in this period, or cannot move
                 continue
             travel = h[j] if v[j] >= 0 else -h[j]
             # the side step's end point must keep YIELD_STEP_M / 2 from the other robots: only
@@ -397,6 +413,8 @@ class Jobs:
         f, z = self.fleet, self.fleet.last_z_m
         steps, paths = [], []
         for j in rows:
+            if self.broken[j]:  # a broken robot cannot step anywhere
+                continue
             travel = np.exp(1j * self.bodies[j].angle)
             close = np.abs(z - z[j]) < 2.0 * YIELD_STEP_M
             close[j] = False

@@ -52,6 +52,7 @@ import pymunk.batch as pb
 from sim.contacts import ContactMonitor
 from sim.control import CONTROLS, ControlParts, control_kind
 from sim.drive import DiffDriveController
+from sim.faults import build_faults, fault_seed_sequence
 from sim.fleet import Clock, FleetState, Schedule
 from sim.jobs import Jobs
 from sim.motors import Motors
@@ -59,7 +60,7 @@ from sim.paths import PathFollower
 from sim.planning import GridPlanner
 from sim.scenario import Scenario
 from sim.tasks import Batch
-from sim.world import Completion, WorldState
+from sim.world import Abandon, Completion, WorldState
 
 ROBOT, WALL = 1, 2  # pymunk collision types
 WALL_THICKNESS_M = 1.0
@@ -101,10 +102,20 @@ class PymunkWorld:
         self.headings_ = np.radians([r.heading_deg for r in scenario.robots])
         self.reach_m_ = 2.0 * sp.drive.radius_m + 0.1  # centres closer than this are touching
         self.buffers_ = (pb.Buffer(), pb.Buffer())  # batch I/O of motors and contacts, reused
+        self.faults = build_faults(scenario)
         self.reset(np.random.default_rng(0))
 
     def reset(self, rng: np.random.Generator) -> None:
-        """Rebuild the space with every robot at its start, facing its start heading, free."""
+        """Rebuild the space with every robot at its start, facing its start heading, free;
+        a fresh fault model (if the scenario has faults)."""
+        self._build(rng)
+        self.abandoned_: list[Abandon] = []
+        if self.faults is not None:
+            self._reset_faults(rng)
+
+    def _build(self, rng: np.random.Generator) -> None:
+        """The space, the fleet state and the collaborators, every robot at its start and free
+        (what :meth:`restore_arrays` rebuilds; the fault model is kept)."""
         sp, drive, m = self.spatial, self.spatial.drive, self.scenario.n_robots
         self.rng_ = rng
         space = pymunk.Space()
@@ -200,6 +211,8 @@ class PymunkWorld:
     def snapshot(self) -> WorldState:
         xy, _ = self.poses()
         t = self.time_s
+        if self.faults is not None:
+            return self._fault_snapshot(t, xy)
         return WorldState(t, self.fleet.task < 0, self.jobs.busy_until_s(t), xy)
 
     def apply(self, batch: Batch, assignment: np.ndarray, bids: np.ndarray) -> None:
@@ -210,6 +223,11 @@ class PymunkWorld:
         self.jobs.assign(batch, assignment, bids, won, xy)
 
     def advance(self, duration_s: float) -> list[Completion]:
+        if self.faults is not None:
+            return self._advance_faults(self.goal_s_ + duration_s)
+        return self._advance(duration_s)
+
+    def _advance(self, duration_s: float) -> list[Completion]:
         self.goal_s_ += duration_s
         target = round(self.goal_s_ / self.dt_s)
         clock, k, dt, run = self.clock, self.substeps, self.dt_s, self.contacts.run
@@ -232,7 +250,7 @@ class PymunkWorld:
         busy = f.task >= 0
         limit_s = float(f.deadline_s[busy].max(initial=self.time_s)) + 60.0
         while (f.task >= 0).any() and self.time_s < limit_s:
-            out += self.advance(0.5)
+            out += self.advance(0.5)  # a robot that breaks meanwhile abandons its task
         for j in np.flatnonzero(f.task >= 0).tolist():
             self.jobs.finish(j, self.time_s, False, "drain: still unfinished at the time limit")
         out += self.jobs.done
@@ -272,7 +290,7 @@ class PymunkWorld:
         way at every set boundary (:meth:`drain`), so a run resumed from a checkpoint and one
         played straight through take the very same steps.
         """
-        self.reset(self.rng_)
+        self._build(self.rng_)
         self.clock.steps = int(arrays["clock/steps"])
         self.goal_s_ = float(arrays["clock/goal_s"])
         self.last_ctrl_step_ = int(arrays["clock/last_control_step"])
@@ -283,6 +301,11 @@ class PymunkWorld:
             )
         self.controller.forget_neighbours()
         self.jobs.refresh_lists()
+        if self.faults is not None:  # the broken robots stand where they broke: plan round them
+            broken = self.faults.broken_now()
+            self.jobs.planner = self.path_planner
+            self.jobs.broken[:] = broken
+            self._mark_broken(broken)
 
     def rebuild(self) -> None:
         """End a set: robots that step aside stop, and the space is rebuilt from the state
@@ -303,7 +326,73 @@ class PymunkWorld:
             ("motors", self.motors),
             ("jobs", self.jobs),
             ("contacts", self.contacts),
-        )
+        ) + ((("faults", self.faults),) if self.faults is not None else ())
+
+    # -- robot faults (sim.faults): the wiring; the model decides when robots break ----------
+    def _reset_faults(self, rng: np.random.Generator) -> None:
+        """A fresh fault model; the robots plan with their own planner, which also knows where
+        the broken robots stand (the cost models keep ``planner``, without them)."""
+        self.faults.reset(np.random.default_rng(fault_seed_sequence(rng)))
+        self.path_planner = GridPlanner(self.spatial)
+        self.jobs.planner = self.path_planner
+        self.marked_z_ = self.fleet.last_z_m.copy()
+
+    def take_abandoned(self) -> list[Abandon]:
+        """Tasks abandoned since the last call (their robots broke), in order."""
+        out, self.abandoned_ = self.abandoned_, []
+        return out
+
+    def _fault_snapshot(self, t: float, xy: np.ndarray) -> WorldState:
+        broken = self.faults.broken_now()
+        busy = self.jobs.busy_until_s(t)
+        repair = self.faults.broken_until_s
+        fixing = broken & np.isfinite(repair)
+        busy[fixing] = np.maximum(busy[fixing], repair[fixing])
+        return WorldState(t, (self.fleet.task < 0) & ~broken, busy, xy, broken)
+
+    def _advance_faults(self, end_s: float) -> list[Completion]:
+        """Advance to ``end_s``, stopping at every failure and repair on the way."""
+        out = []
+        while True:
+            t_next = self.faults.next_event_s()
+            if t_next > end_s:
+                break
+            if t_next > self.goal_s_:
+                out += self._advance(t_next - self.goal_s_)
+            self._fault_events(t_next)
+        out += self._advance(end_s - self.goal_s_)
+        broken = self.faults.broken_now()
+        if broken.any():  # a robot that broke while driving rolled on while braking
+            z = self.fleet.last_z_m[broken]
+            if np.abs(z - self.marked_z_[broken]).max() > 0.05:
+                self._mark_broken(broken)
+        return out
+
+    def _fault_events(self, t_event: float) -> None:
+        """Apply the failures and repairs due at ``t_event``: a robot that breaks abandons its
+        task and stands where it is (no wheel command: it brakes to a stop at its wheel limits
+        and resists pushes like any robot at rest); others plan round it until it is repaired."""
+        broke, fixed = self.faults.step(t_event)
+        t = self.time_s
+        for j in broke:
+            if self.fleet.task[j] >= 0:
+                self.abandoned_.append(self.jobs.abandon(j, t))
+        broken = self.faults.broken_now()
+        if broke or fixed:
+            self.jobs.broken[:] = broken
+            self._mark_broken(broken)
+
+    def _mark_broken(self, broken: np.ndarray) -> None:
+        """The path planner's obstacles: the scenario's, and a square the size of a robot
+        where each broken robot stands (it is grown by the radius and clearance like any)."""
+        r = self.spatial.drive.radius_m
+        z = self.fleet.last_z_m
+        self.marked_z_ = z.copy()
+        squares = [
+            ((x - r, y - r), (x + r, y - r), (x + r, y + r), (x - r, y + r))
+            for x, y in zip(z.real[broken].tolist(), z.imag[broken].tolist(), strict=True)
+        ]
+        self.path_planner.set_obstacles([*self.spatial.obstacles, *squares])
 
     def summary(self, record=None) -> dict:
         """JSON-able physics statistics of the run so far: contacts begun robot-robot and

@@ -108,6 +108,39 @@ class SpatialSpec:
     avoidance: str = "none"  # "orca": reciprocal collision avoidance (sim.orca), opt-in; "none"
 
 
+FAULT_POLICIES = ("requeue", "drop")
+REPAIR_KINDS = ("fixed", "exponential")
+
+
+@dataclass(frozen=True, slots=True)
+class FaultSpec:
+    """Robot breakdowns (``[faults]``; every key optional, no table or an empty one: none).
+
+    Each robot's time to failure is exponential with mean ``mttf_s`` (``mttf_by_robot`` names
+    robots with their own mean); ``inf`` means the robot never breaks. A broken robot is out
+    for ``repair_s`` seconds (``repair = "fixed"``) or for an exponential time of that mean
+    (``"exponential"``); with probability ``p_permanent`` a failure is for good. The task a
+    robot was doing when it broke is re-announced in the next round (``policy = "requeue"``)
+    or lost at once (``"drop"``).
+    """
+
+    mttf_s: float = float("inf")
+    mttf_by_robot: tuple[tuple[str, float], ...] = ()  # (robot name, mean time to failure s)
+    repair_s: float = 60.0
+    repair: str = "fixed"
+    p_permanent: float = 0.0
+    policy: str = "requeue"
+
+    def mttf_per_robot(self, names) -> np.ndarray:
+        """(m,) mean time to failure of each robot, s (inf: never breaks)."""
+        own = dict(self.mttf_by_robot)
+        return np.array([own.get(n, self.mttf_s) for n in names], dtype=float)
+
+    def enabled(self, names) -> bool:
+        """True if some robot can break."""
+        return bool(np.isfinite(self.mttf_per_robot(names)).any())
+
+
 @dataclass(frozen=True, slots=True)
 class Scenario:
     """The whole experiment: robots, task types, costs, stream and allocator parameters."""
@@ -121,6 +154,7 @@ class Scenario:
     learning: LearningSpec = field(default_factory=LearningSpec)
     experience: ExperienceSpec = field(default_factory=ExperienceSpec)
     spatial: SpatialSpec | None = None
+    faults: FaultSpec = field(default_factory=FaultSpec)
     source: str = ""  # file the scenario came from
     source_sha256: str = ""
 
@@ -131,6 +165,11 @@ class Scenario:
     @property
     def n_types(self) -> int:
         return len(self.task_types)
+
+    @property
+    def has_faults(self) -> bool:
+        """True if the ``[faults]`` table lets some robot break."""
+        return self.faults.enabled([r.name for r in self.robots])
 
     def capability_matrix(self) -> np.ndarray:
         """Boolean (robots x types) matrix: True where the robot can do the type."""

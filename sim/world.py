@@ -13,6 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
+from sim.faults import build_faults, fault_seed_sequence
 from sim.scenario import Scenario
 from sim.tasks import Batch
 
@@ -25,6 +26,13 @@ class WorldState:
     free: np.ndarray  # (m,) bool: robot has no task
     busy_until_s: np.ndarray  # (m,) float: estimated end of the current task (time_s if free)
     positions: np.ndarray | None = None  # (m, 2) m; None in the abstract world
+    broken: np.ndarray | None = None  # (m,) bool: robot broken (never free); None: none can break
+
+    def available(self) -> np.ndarray:
+        """(m,) robots not broken (all of them in a world without faults)."""
+        if self.broken is None:
+            return np.ones(self.free.size, dtype=bool)
+        return ~self.broken
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,6 +47,23 @@ class Completion:
     distance_m: float = 0.0  # driven
     ok: bool = True
     reason: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class Abandon:
+    """A task given up because its robot broke down (``sim.faults``)."""
+
+    task_id: int
+    robot: int
+    t_alloc_s: float
+    t_s: float  # when the robot broke
+    bid: float
+
+
+def take_abandoned(world) -> list[Abandon]:
+    """The tasks ``world`` abandoned since the last call (none for a world without faults)."""
+    take = getattr(world, "take_abandoned", None)
+    return take() if take is not None else []
 
 
 class World(Protocol):
@@ -63,11 +88,17 @@ class World(Protocol):
 
 
 class AbstractWorld:
-    """Time-only world: robot j doing a T_i task is busy for ``exec_time_s[i]`` seconds."""
+    """Time-only world: robot j doing a T_i task is busy for ``exec_time_s[i]`` seconds.
+
+    With a ``[faults]`` table (``sim.faults``) a robot that breaks gives up its task (an
+    :class:`Abandon`, collected with :meth:`take_abandoned`) and is neither free nor bid for
+    until it is repaired; its estimated end of business is the end of the repair.
+    """
 
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario
         self.exec_time_s_ = np.asarray(scenario.exec_time_s, dtype=float)
+        self.faults = build_faults(scenario)
         self.reset(np.random.default_rng(0))
 
     def reset(self, rng: np.random.Generator) -> None:
@@ -75,10 +106,25 @@ class AbstractWorld:
         self.time_s_ = 0.0
         self.busy_until_s_ = np.zeros(m)
         self.jobs_: dict[int, tuple[int, float, float]] = {}  # robot -> (task, t_alloc, bid)
+        self.abandoned_: list[Abandon] = []
+        if self.faults is not None:
+            self.faults.reset(np.random.default_rng(fault_seed_sequence(rng)))
 
     def snapshot(self) -> WorldState:
         busy_until = np.maximum(self.busy_until_s_, self.time_s_)
-        return WorldState(self.time_s_, self.busy_until_s_ <= self.time_s_, busy_until)
+        free = self.busy_until_s_ <= self.time_s_
+        if self.faults is None:
+            return WorldState(self.time_s_, free, busy_until)
+        broken = self.faults.broken_now()
+        repair = self.faults.broken_until_s
+        fixing = broken & np.isfinite(repair)
+        busy_until[fixing] = np.maximum(busy_until[fixing], repair[fixing])
+        return WorldState(self.time_s_, free & ~broken, busy_until, None, broken)
+
+    def take_abandoned(self) -> list[Abandon]:
+        """Tasks abandoned since the last call, in the order their robots broke."""
+        out, self.abandoned_ = self.abandoned_, []
+        return out
 
     def apply(self, batch: Batch, assignment: np.ndarray, bids: np.ndarray) -> None:
         for t in np.flatnonzero(assignment >= 0):
@@ -89,23 +135,60 @@ class AbstractWorld:
             self.jobs_[j] = (int(batch.ids[t]), self.time_s_, float(bids[t]))
 
     def advance(self, duration_s: float) -> list[Completion]:
+        if self.faults is not None:
+            return self._advance_faults(self.time_s_ + duration_s)
         self.time_s_ += duration_s
         return self._collect(lambda j: self.busy_until_s_[j] <= self.time_s_)
 
     def drain(self) -> list[Completion]:
+        if self.faults is not None:
+            out = []
+            while self.jobs_:  # a failure on the way abandons a task: go on to the others
+                end = max(self.time_s_, max(float(self.busy_until_s_[j]) for j in self.jobs_))
+                out += self._advance_faults(end)
+            return out
         self.time_s_ = max(self.time_s_, float(self.busy_until_s_.max(initial=0.0)))
         return self._collect(lambda j: True)
+
+    def _advance_faults(self, end_s: float) -> list[Completion]:
+        """Advance to ``end_s`` through every failure and repair on the way, in time order:
+        the tasks that end by an event are done before it; a robot that breaks abandons its task."""
+        out, faults = [], self.faults
+        while True:
+            t_next = faults.next_event_s()
+            if t_next > end_s:
+                break
+            self.time_s_ = max(self.time_s_, t_next)
+            out += self._collect(lambda j: self.busy_until_s_[j] <= self.time_s_)
+            broke, _ = faults.step(t_next)
+            for j in broke:
+                if j in self.jobs_:
+                    task, t_alloc, bid = self.jobs_.pop(j)
+                    self.abandoned_.append(Abandon(task, j, t_alloc, self.time_s_, bid))
+                    self.busy_until_s_[j] = self.time_s_
+        self.time_s_ = max(self.time_s_, end_s)
+        out += self._collect(lambda j: self.busy_until_s_[j] <= self.time_s_)
+        return out
 
     def state_arrays(self) -> dict[str, np.ndarray]:
         """Clock and busy times, for checkpoints taken between sets (no task in progress)."""
         if self.jobs_:
             raise RuntimeError("checkpoint requested while tasks are in progress")
-        return {"time_s": np.array(self.time_s_), "busy_until_s": self.busy_until_s_.copy()}
+        out = {"time_s": np.array(self.time_s_), "busy_until_s": self.busy_until_s_.copy()}
+        if self.faults is not None:
+            out.update({f"faults/{k}": v for k, v in self.faults.state_arrays().items()})
+        return out
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         self.time_s_ = float(arrays["time_s"])
         self.busy_until_s_ = arrays["busy_until_s"].astype(float).copy()
         self.jobs_ = {}
+        self.abandoned_ = []
+        if self.faults is not None:
+            pre = "faults/"
+            self.faults.restore_arrays(
+                {k[len(pre) :]: v for k, v in arrays.items() if k.startswith(pre)}
+            )
 
     def _collect(self, done) -> list[Completion]:
         out = []

@@ -148,6 +148,10 @@ def cmd_run(args) -> int:
         "allocators": {spec.allocator: aggregate([summary])},
     }
     write_json_atomic(out / "metrics.json", metrics)
+    if "faults" in summary:
+        from scenarios.experiments.figures import fig_faults_run
+
+        fig_faults_run(summary["faults"], out / "faults.png")
     comp = summary["completion"]["overall"]
     print(
         f"{spec.allocator} on {scenario.name} ({spec.cost} cost, seed {spec.seed}): completion "
@@ -266,6 +270,7 @@ def cmd_soak(args) -> int:
         args.cost,
         args.seed,
         progress=not (args.json or args.no_progress),
+        faults=args.faults,
     )
     if args.json:
         print(dumps(result))
@@ -314,6 +319,14 @@ def cmd_study(args) -> int:
                             f"parts of {args.name}: {', '.join(parts)}")  # fmt: skip
         parts = wanted
     out = args.out or Path("renders") / "study" / args.name
+    if args.name == "faults":
+        from scenarios.sweep.fault_study import markdown as fault_markdown
+        from scenarios.sweep.fault_study import run_fault_study
+
+        doc = run_fault_study(out, args.workers, args.scheduler, not args.no_progress)
+        print(fault_markdown(doc))
+        print(f"wrote {out}/study.json, study.md and faults.png")
+        return 0
     doc = run_study(out, parts, args.workers, args.scheduler, not args.no_progress)
     print(markdown(doc))
     print(f"wrote {out}/study.json, study.md and the figures")

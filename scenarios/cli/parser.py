@@ -88,6 +88,46 @@ def int_at_least(lowest: int):
 
 
 _positive_int = int_at_least(1)
+
+FAULT_WORDS = {
+    "mttf": "faults.mttf_s",
+    "repair": "faults.repair_s",
+    "permanent": "faults.p_permanent",
+    "policy": "faults.policy",
+}
+
+
+def fault_option(text: str) -> tuple[tuple[str, object], ...]:
+    """``--faults mttf=600,repair=60,permanent=0.01,policy=requeue`` as scenario overrides."""
+    out = []
+    for part in text.split(","):
+        key, eq, value = part.partition("=")
+        key = key.strip()
+        if not eq or key not in FAULT_WORDS:
+            raise argparse.ArgumentTypeError(
+                f"{part!r}: expected KEY=VALUE with KEY one of {', '.join(FAULT_WORDS)}"
+            )
+        if key == "policy":
+            if value not in ("requeue", "drop"):
+                raise argparse.ArgumentTypeError(
+                    f"policy={value!r}: unknown policy; one of ['requeue', 'drop']"
+                )
+            out.append((FAULT_WORDS[key], value))
+            continue
+        try:
+            number = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{key}={value!r}: not a number") from None
+        if key == "mttf" and not number > 0:
+            raise argparse.ArgumentTypeError(f"mttf={value}: must be > 0 (s)")
+        if key == "repair" and not number >= 0:
+            raise argparse.ArgumentTypeError(f"repair={value}: must be >= 0 (s)")
+        if key == "permanent" and not 0 <= number <= 1:
+            raise argparse.ArgumentTypeError(f"permanent={value}: probability outside [0, 1]")
+        out.append((FAULT_WORDS[key], number))
+    return tuple(out)
+
+
 _non_negative_int = int_at_least(0)
 
 
@@ -303,6 +343,15 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("--allocator", type=_allocator_name, default="market", help="(default market)")
     k.add_argument("--cost", choices=COSTS, default="distance", help="bid cost model")
     k.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
+    k.add_argument(
+        "--faults",
+        type=fault_option,
+        default=(),
+        metavar="KEY=VALUE,...",
+        help="robot faults on top of the scenario's [faults] table: mttf=S (mean time to "
+        "failure per robot, s), repair=S (repair time, s), permanent=P (share of failures "
+        "for good), policy=requeue|drop (the broken robot's task); e.g. mttf=600,repair=60",
+    )
     k.add_argument("--json", action="store_true", help="print one JSON object")
     k.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
@@ -348,16 +397,19 @@ def add_study_parser(subparsers) -> argparse.ArgumentParser:
 
     p = subparsers.add_parser(
         "study",
-        help="a bundled study (several sweeps read together): refusal",
+        help="a bundled study (several sweeps read together): refusal, faults",
         description="refusal: where ExpT-MRTA's refusals cost completion and what the reserve "
         "rule wins back. Runs the bundled sweeps refusal_load (abstract paper scenario, offered "
         "load 0.45-2.4 and no overload), refusal_frontier (space against completion over delta_u "
         "x coverage_k) and refusal_spatial (paper_spatial, abstract and distance bids), 10 seeds "
         "each, into OUT/<sweep>/ (resumable: re-run to finish an interrupted study), then writes "
         "OUT/study.json, study.md, load.png, losses.png, frontier.png and spatial.png. About 5-10 "
-        "minutes on two cores.",
+        "minutes on two cores. faults: completion of market, QL-MRTA, ExpT-MRTA, greedy and "
+        "CBBA against the robots' mean time to failure (the bundled sweep faults, abstract paper "
+        "scenario, 5 seeds, MTTF inf = no faults as the reference) into OUT/faults/, then "
+        "OUT/study.json, study.md and faults.png.",
     )
-    p.add_argument("name", choices=sorted(STUDIES), help="which study (refusal)")
+    p.add_argument("name", choices=sorted(STUDIES), help="which study (refusal, faults)")
     p.add_argument(
         "--out", type=Path, default=None, help="output folder (default renders/study/<name>/)"
     )

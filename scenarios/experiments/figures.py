@@ -332,3 +332,39 @@ def contact_line(spatial: dict, extra: str = "") -> str:
 
 
 CONTACT_KINDS = ("robot_touch", "robot_impact", "wall_touch", "wall_impact")
+
+
+def fig_faults_run(faults: dict, path: Path | None = None):
+    """One run with robot faults: (a) each robot's availability (share of the run not broken)
+    and its breakdowns; (b) the fates of the test-set tasks (``learning.fates``)."""
+    import matplotlib as mpl
+
+    avail = faults["availability"]["per_robot"]
+    names = list(avail)
+    with mpl.rc_context(STYLE):
+        fig = new_figure(11.0, 4.0)
+        a, b = fig.subplots(1, 2, gridspec_kw={"width_ratios": [max(len(names), 4), 6]})
+        x = np.arange(len(names))
+        a.bar(x, [avail[n] for n in names], color="C0", gid="availability")
+        for k, n in enumerate(names):
+            a.text(k, avail[n] + 0.01, str(faults["failures_per_robot"][n]), ha="center",
+                   va="bottom", fontsize=7)  # fmt: skip
+        a.set_xticks(x, names, rotation=90 if len(names) > 12 else 0)
+        a.set_ylim(0, 1.1)
+        a.axhline(faults["availability"]["mean"], color="0.3", lw=0.8, ls="--", label="mean")
+        a.set(title="(a) Availability per robot (number: breakdowns)", ylabel="share not broken")
+        a.legend(frameon=False, loc="lower right")
+        fates = faults["fates"]
+        keys = list(fates)
+        b.barh(np.arange(len(keys)), [fates[k] for k in keys], color="C2", gid="fates")
+        b.set_yticks(np.arange(len(keys)), [k.replace("_", " ") for k in keys])
+        b.invert_yaxis()
+        b.set(title="(b) Test-set task fates", xlabel="tasks")
+        ends = faults["abandon_ends"]
+        fig.suptitle(
+            f"Robot faults (MTTF {faults['mttf_s']:g} s, policy {faults['policy']}): "
+            f"{faults['abandoned']} tasks abandoned on the test sets, {ends['requeued']} "
+            f"re-announced, {ends['dropped']} dropped, {ends['set_end']} lost at a set's end"
+        )
+        save_figure(fig, path)
+    return fig

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from learning.episode import LOSS_CAUSES, RunRecord
+from learning.episode import LOSS_CAUSES, PhaseRecord, RunRecord
+from learning.fates import ABANDON_ENDS, FATES
 from learning.qlmrta import joint_log10
 from sim.scenario import Scenario
 from sim.tasks import TaskStream
@@ -62,8 +63,15 @@ def specialisation(scenario: Scenario, types: np.ndarray, robots: np.ndarray) ->
 
 def summarize_run(scenario: Scenario, stream: TaskStream, record: RunRecord, learns: bool) -> dict:
     """JSON-able summary of one run: test-phase completion, tasks, learning space, experience,
-    why tasks were lost, offered load and specialisation."""
+    why tasks were lost, offered load and specialisation.
+
+    With robot faults (a ``[faults]`` table that lets a robot break) a task may be announced
+    more than once: completion then counts each task once, as taken if its last allocation was
+    not abandoned (fates done, failed, abandoned_done, abandoned_failed; without faults this is
+    the share allocated, as before), and a ``faults`` entry says what the faults did."""
     ids, assigned = record.test.arrays()
+    if scenario.has_faults:
+        ids, assigned = final_allocation(ids, assigned, record.test)
     high = stream.high[ids]
     types = stream.types[ids]
     taken = assigned >= 0
@@ -91,6 +99,8 @@ def summarize_run(scenario: Scenario, stream: TaskStream, record: RunRecord, lea
         ),
         "specialisation": specialisation(scenario, types[taken], assigned[taken]),
     }
+    if scenario.has_faults:
+        out["faults"] = fault_summary(scenario, record)
     if learns:
         names = [r.name for r in scenario.robots]
         out["learning_space"] = {
@@ -109,6 +119,53 @@ def summarize_run(scenario: Scenario, stream: TaskStream, record: RunRecord, lea
             for name, row in zip(names, record.willing_final, strict=True)
         }
     return out
+
+
+def final_allocation(
+    ids: np.ndarray, assigned: np.ndarray, phase: PhaseRecord
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each task once (in the order of its first announcement) with the robot of its last
+    allocation, or -1 if its last allocation was abandoned or it was never allocated."""
+    if not ids.size:
+        return ids, assigned
+    _, first = np.unique(ids, return_index=True)
+    rev_ids = ids[::-1]
+    uniq, last_rev = np.unique(rev_ids, return_index=True)
+    last_robot = dict(zip(uniq.tolist(), assigned[::-1][last_rev].tolist(), strict=True))
+    fate = {row[0]: row[1] for row in phase.fate_rows}
+    order = ids[np.sort(first)]
+    out = np.array(
+        [
+            last_robot[t] if fate.get(t, "") not in ("lost", "abandoned_lost") else -1
+            for t in order.tolist()
+        ],
+        dtype=assigned.dtype,
+    )
+    return order, out
+
+
+def fault_summary(scenario: Scenario, record: RunRecord) -> dict:
+    """What the robot faults did: test-phase fates and abandonments, and per robot its
+    breakdowns and availability (share of the whole run, learning and test, not broken)."""
+    test = record.test
+    names = [r.name for r in scenario.robots]
+    avail = record.availability
+    fails = record.failures
+    return {
+        "fates": dict(zip(FATES, test.fates.tolist(), strict=True)),
+        "abandoned": int(test.abandon_ends.sum()),
+        "abandon_ends": dict(zip(ABANDON_ENDS, test.abandon_ends.tolist(), strict=True)),
+        "requeued": int(test.abandon_ends[ABANDON_ENDS.index("requeued")]),
+        "availability": {
+            "mean": float(np.mean(avail)) if avail is not None else float("nan"),
+            "per_robot": dict(zip(names, avail.tolist(), strict=True)) if avail is not None else {},
+        },
+        "failures_per_robot": dict(zip(names, fails.tolist(), strict=True))
+        if fails is not None
+        else {},
+        "mttf_s": float(scenario.faults.mttf_s),
+        "policy": scenario.faults.policy,
+    }
 
 
 def spatial_metrics(scenario: Scenario, stream: TaskStream, record: RunRecord, cost: str) -> dict:
@@ -173,7 +230,7 @@ def completion_table(scenario: Scenario, stream: TaskStream, record: RunRecord) 
     exec_s = np.asarray(scenario.exec_time_s, dtype=float)[stream.types[ids]]
     t_alloc = np.array([c.t_alloc_s for c in comps])
     t_done = np.array([c.t_done_s for c in comps])
-    return {
+    out = {
         "task": ids.tolist(),
         "type": [scenario.task_types[i] for i in stream.types[ids]],
         "high": stream.high[ids].tolist(),
@@ -185,6 +242,31 @@ def completion_table(scenario: Scenario, stream: TaskStream, record: RunRecord) 
         "ok": [c.ok for c in comps],
         "reason": [c.reason for c in comps],
     }
+    if scenario.has_faults:
+        _fault_rows(scenario, stream, record, out)
+    return out
+
+
+def _fault_rows(scenario: Scenario, stream: TaskStream, record: RunRecord, table: dict) -> None:
+    """Robot faults: every row gets the task's final ``fate`` and its ``abandons`` (times its
+    robot broke while doing it), and each abandonment gets a row of its own (ok false, reason
+    'abandoned: robot broke', time_to_finish_s the time until the robot broke)."""
+    fates = {row[0]: (row[1], row[2]) for row in record.test.fate_rows}
+    aband = record.test.abandons
+    ids = np.array([a.task_id for a in aband], dtype=int)
+    types = stream.types[ids]
+    table["task"] += ids.tolist()
+    table["type"] += [scenario.task_types[i] for i in types]
+    table["high"] += stream.high[ids].tolist()
+    table["robot"] += [scenario.robots[a.robot].name for a in aband]
+    table["bid"] += [a.bid for a in aband]
+    table["distance_m"] += [float("nan")] * len(aband)
+    table["time_to_start_s"] += [float("nan")] * len(aband)
+    table["time_to_finish_s"] += [a.t_s - a.t_alloc_s for a in aband]
+    table["ok"] += [False] * len(aband)
+    table["reason"] += ["abandoned: robot broke"] * len(aband)
+    table["fate"] = [fates[t][0] for t in table["task"]]
+    table["abandons"] = [fates[t][1] for t in table["task"]]
 
 
 def ci95(values: list[float]) -> float:
@@ -253,6 +335,8 @@ def aggregate(runs: list[dict]) -> dict:
             name: {t: sum(t in k[name] for k in kept) / len(kept) for t in _types_of(runs[0], name)}
             for name in robots
         }
+    if "faults" in runs[0]:
+        out["faults"] = aggregate_faults(runs)
     if "spatial" in runs[0]:
         mean, half, per_seed = _stat_tree(runs, lambda r: r["spatial"])
         out["spatial"] = {**mean, "ci95": half, "per_seed": per_seed}
@@ -260,6 +344,33 @@ def aggregate(runs: list[dict]) -> dict:
     if notes:
         out["notes"] = notes
     return out
+
+
+def aggregate_faults(runs: list[dict]) -> dict:
+    """Fault entries of several seeds: counts summed, availability averaged, per seed kept."""
+    f0 = runs[0]["faults"]
+    robots = list(f0["availability"]["per_robot"])
+    return {
+        "fates": {k: sum(r["faults"]["fates"][k] for r in runs) for k in f0["fates"]},
+        "abandoned": sum(r["faults"]["abandoned"] for r in runs),
+        "abandon_ends": {
+            k: sum(r["faults"]["abandon_ends"][k] for r in runs) for k in f0["abandon_ends"]
+        },
+        "requeued": sum(r["faults"]["requeued"] for r in runs),
+        "availability": {
+            "mean": _mean([r["faults"]["availability"]["mean"] for r in runs]),
+            "per_robot": {
+                n: _mean([r["faults"]["availability"]["per_robot"][n] for r in runs])
+                for n in robots
+            },
+        },
+        "failures_per_robot": {
+            n: sum(r["faults"]["failures_per_robot"][n] for r in runs) for n in robots
+        },
+        "mttf_s": f0["mttf_s"],
+        "policy": f0["policy"],
+        "per_seed": [r["faults"] for r in runs],
+    }
 
 
 def null_notes(runs: list[dict], agg: dict) -> list[str]:

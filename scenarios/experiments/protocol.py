@@ -43,7 +43,7 @@ from sim.orca import AVOIDANCE
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
 
-OVERRIDABLE = ("stream", "learning", "experience")
+OVERRIDABLE = ("stream", "learning", "experience", "faults")
 SPATIAL_OVERRIDES = {"spatial.avoidance": AVOIDANCE}  # spatial keys a run may override: values
 
 

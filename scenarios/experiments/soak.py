@@ -5,6 +5,14 @@ The run plays as many task sets as it takes to announce ``tasks`` tasks, keeping
 resident set size at 10 % and at 100 % of the rounds, the deepest robot-robot or robot-wall
 overlap the world saw, failed (unreachable or stuck) tasks, and the wall time. Every round's
 and every set's invariants are checked as in any run; a violation stops the soak.
+
+With robot faults (``faults``: overrides of the ``[faults]`` table, ``mrta soak --faults``) it
+also reports the tasks' fates (``learning.fates``: the ledger checks every set that each
+announced task ended exactly once, so ``tasks_unaccounted`` is 0 or the soak stopped), the
+abandonments, the robots' availability, and the longest time a driving robot went without
+progress when a round was announced (``max_no_progress_s``; past the stuck timeout a robot
+recovers or fails with a reason, so this stays below the timeout plus a control period and
+the announcement interval's sampling).
 """
 
 from __future__ import annotations
@@ -13,8 +21,12 @@ import math
 import resource
 import time
 
+import numpy as np
+
 from learning.episode import run_protocol
+from learning.fates import ABANDON_ENDS, FATES
 from scenarios.experiments.protocol import RunSpec, UserError, build_run, load_named
+from sim.recording import DRIVING
 
 
 def peak_rss_mib() -> float:
@@ -29,6 +41,7 @@ def soak(
     cost: str = "distance",
     seed: int = 0,
     progress: bool = True,
+    faults: tuple = (),
 ) -> dict:
     """Run the soak and return its figures (JSON-able)."""
     from scenarios.experiments.progress import progress_bar
@@ -42,6 +55,7 @@ def soak(
     per_set = s.rounds_per_set * (s.batch_min + s.batch_max) / 2
     n_sets = max(1, math.ceil(tasks / per_set))
     overrides = (("stream.n_sets", n_sets), ("stream.learn_sets", n_sets), ("stream.test_sets", 1))
+    overrides += tuple(faults)
     spec = RunSpec(scenario, allocator, cost, seed, overrides)
     scen, stream, world, cost_model, alloc, rng = build_run(spec)
     rounds_total = n_sets * s.rounds_per_set
@@ -59,10 +73,17 @@ def soak(
         "rounds": rounds_total,
     }
     bar = progress_bar(rounds_total, f"soak {scen.name}", "round", progress)
-    count = {"rounds": 0}
+    count = {"rounds": 0, "no_progress_s": 0.0}
+    fleet_of = getattr(world, "fleet", None)
 
     def on_round() -> None:
         count["rounds"] += 1
+        f = world.fleet if fleet_of is not None else None
+        if f is not None:
+            drv = (f.state == DRIVING) & np.isfinite(f.t_progress_s)
+            if drv.any():
+                worst = world.time_s - float(f.t_progress_s[drv].min())
+                count["no_progress_s"] = max(count["no_progress_s"], worst)
         bar.update()
         key = marks.get(count["rounds"])
         if key:
@@ -100,6 +121,20 @@ def soak(
         invariants="held (checked every round and every set)",
     )
     out["rss_growth_mib"] = out["rss_peak_mib_at_100pct"] - out["rss_peak_mib_at_10pct"]
+    out["max_no_progress_s"] = count["no_progress_s"]
+    out["stuck_timeout_s"] = scen.spatial.stuck_timeout_s
+    if scen.has_faults:
+        fates = dict(zip(FATES, phase.fates.tolist(), strict=True))
+        ends = dict(zip(ABANDON_ENDS, phase.abandon_ends.tolist(), strict=True))
+        out.update(
+            faults=", ".join(f"{k}={v}" for k, v in faults) or "scenario's [faults] table",
+            **{f"fate_{k}": v for k, v in fates.items()},
+            tasks_unaccounted=phase.announced - phase.abandon_ends[0] - sum(fates.values()),
+            **{f"abandon_{k}": v for k, v in ends.items()},
+            robot_failures=int(record.failures.sum()),
+            availability_mean=float(record.availability.mean()),
+            availability_min=float(record.availability.min()),
+        )
     return out
 
 

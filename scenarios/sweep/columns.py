@@ -28,9 +28,17 @@ METRIC_COLUMNS = (
     "time_to_start_s",  # spatial: allocation to arrival, per completed task
     "failed_tasks",  # spatial: tasks reported failed
     *SPATIAL_CONTACTS,  # spatial: contacts begun per robot-hour, by kind (sim.contacts)
+    "scarce_types",  # the types with the fewest willing robots at the end, ";"-joined
+    "completion_scarce_low",  # completion of those types (mean over them), low priority
+    "completion_scarce_high",  # ... high priority
+    "abandoned",  # faults: test-set tasks abandoned because their robot broke
+    "requeued",  # faults: of those, re-announced
+    "availability",  # faults: mean share of the run a robot was not broken
 )
 INT_COLUMNS = {"seed", "tasks_announced", "tasks_allocated", "space_initial", "space_final"}
 INT_COLUMNS |= {
+    "abandoned",
+    "requeued",
     "kept_capabilities",
     "min_willing",
     "failed_tasks",

@@ -34,6 +34,10 @@ SUMMARY_METRICS = (
     "specialisation_bits",
     "distance_per_task_m",
     "time_per_task_s",
+    "completion_scarce_low",
+    "completion_scarce_high",
+    "abandoned",
+    "availability",
 )
 PANELS = (
     ("completion_high", "high-priority completion"),
@@ -84,6 +88,18 @@ def metric_row(summary: dict) -> dict[str, str]:
         row["failed_tasks"] = _num(spatial["failed_tasks"])
         for c in SPATIAL_CONTACTS:
             row[c] = _opt(spatial.get(c))
+    willing = summary["willing_per_type"]
+    fewest = min(willing.values())
+    scarce = [t for t, n in willing.items() if n == fewest]
+    by_type = summary["completion"]["by_type"]
+    row["scarce_types"] = ";".join(scarce)
+    for prio in ("low", "high"):
+        vals = [by_type[t][prio] for t in scarce if not math.isnan(by_type[t][prio])]
+        row[f"completion_scarce_{prio}"] = _opt(float(np.mean(vals)) if vals else None)
+    faults = summary.get("faults")
+    row["abandoned"] = _num(faults["abandoned"]) if faults else ""
+    row["requeued"] = _num(faults["requeued"]) if faults else ""
+    row["availability"] = _opt(faults["availability"]["mean"]) if faults else ""
     space = summary.get("learning_space")
     if space is not None:
         row["space_initial"] = _num(int(space["initial"]))

@@ -31,15 +31,22 @@ from scenarios.loader import (
     resolve,
 )
 from scenarios.sweep.columns import METRIC_COLUMNS
-from sim.scenario import ExperienceSpec, LearningSpec, StreamSpec
+from sim.scenario import ExperienceSpec, FaultSpec, LearningSpec, StreamSpec
 
-SECTIONS = {"stream": StreamSpec, "learning": LearningSpec, "experience": ExperienceSpec}
+SECTIONS = {
+    "stream": StreamSpec,
+    "learning": LearningSpec,
+    "experience": ExperienceSpec,
+    "faults": FaultSpec,
+}
 PARAMETERS = {  # every overridable "section.key" and its default (which gives its type)
     f"{s}.{f.name}": getattr(cls(), f.name)
     for s, cls in SECTIONS.items()
     if s in OVERRIDABLE
     for f in fields(cls)
+    if isinstance(getattr(cls(), f.name), bool | int | float | str)  # not faults.mttf_by_robot
 } | {path: allowed[0] for path, allowed in SPATIAL_OVERRIDES.items()}
+INFINITE_OK = {"faults.mttf_s"}  # inf: no robot breaks (the reference point of a fault sweep)
 TOP_KEYS = {"sweep", "fixed", "grid", "points"}
 SWEEP_KEYS = {"name", "description", "scenarios", "allocators", "costs", "seeds"}
 MAX_RUNS = 100_000
@@ -200,7 +207,7 @@ class _Parser:
             self.fail(where, f"must be a number, got {val!r}")
         if isinstance(default, int) and not isinstance(val, int):
             self.fail(where, f"must be an integer, got {val!r}")
-        if not math.isfinite(val):
+        if not math.isfinite(val) and not (param in INFINITE_OK and val == math.inf):
             self.fail(where, f"must be finite, got {val}")
         return val if isinstance(default, int) else float(val)
 

@@ -25,7 +25,7 @@ from scenarios.sweep.runner import run_sweep
 from scenarios.sweep.study_analysis import PARTS, analyse, markdown
 from scenarios.sweep.study_figures import fig_frontier, fig_load, fig_losses, fig_spatial
 
-STUDIES = {"refusal": PARTS}  # name -> its sweep files (bundled sweep names)
+STUDIES = {"refusal": PARTS, "faults": ("faults",)}  # name -> its sweep files (bundled names)
 
 
 def run_study(

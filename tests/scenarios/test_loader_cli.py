@@ -142,6 +142,7 @@ def test_bundled_files_are_listed_per_folder():
         "avoidance",
         "delta_u",
         "experience",
+        "faults",
         "history",
         "refusal_frontier",
         "refusal_load",

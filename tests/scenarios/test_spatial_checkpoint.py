@@ -83,6 +83,22 @@ def test_resume_at_every_set_boundary_equals_the_straight_run(
         assert json.dumps(resumed, sort_keys=True) == json.dumps(straight, sort_keys=True), after
 
 
+def test_resume_with_robot_faults_equals_the_straight_run(tmp_path, monkeypatch):
+    """With faults the checkpoint also holds the fault model (its generator included) and the
+    path planner marks the robots that stand broken, in the straight and the resumed run."""
+    scenario = small_spatial(tmp_path, n_sets=6, rounds=8)
+    spec = RunSpec(str(scenario), "expt", "distance", 2, (("faults.mttf_s", 300.0),))
+    straight = execute(spec, task_table=True)
+    assert sum(straight["faults"]["failures_per_robot"].values()) > 0
+    for after in (2, 4):
+        ck = tmp_path / f"faults{after}.npz"
+        interrupted(spec, ck, after, monkeypatch)
+        arrays, _ = load_checkpoint(ck)
+        assert "world/faults/rng_state" in arrays
+        resumed = execute(spec, checkpoint=ck, resume=True, task_table=True)
+        assert json.dumps(resumed, sort_keys=True) == json.dumps(straight, sort_keys=True), after
+
+
 def test_world_state_round_trip_for_both_controls(tmp_path):
     path = small_spatial(tmp_path)
     sc = load_scenario(path)

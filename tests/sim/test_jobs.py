@@ -909,7 +909,7 @@ def test_state_arrays_round_trip_between_sets():
     assert fresh.failures == 7 and type(fresh.failures) is int
     jobs.done.append(Completion(1, 0, 0.0, 1.0, 1.0))
     with pytest.raises(
-        RuntimeError, match="^jobs state requested with completions not handed out$"
+        RuntimeError, match=r"^jobs state requested with completions not handed out$"
     ):
         jobs.state_arrays()
     # restored arrays take the jobs' dtypes whatever they come as

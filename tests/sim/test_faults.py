@@ -1,0 +1,206 @@
+"""Robot faults (sim.faults): seeded failure and repair times, the worlds' reaction to them."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from scenarios.loader import parse_scenario, read_toml, resolve
+from sim.faults import FaultModel, build_faults, fault_seed_sequence
+from sim.physics import PymunkWorld
+from sim.recording import IDLE
+from sim.scenario import DriveSpec, FaultSpec, RobotSpec, Scenario, SpatialSpec
+from sim.tasks import Batch
+from sim.world import AbstractWorld
+
+Z3 = 3.0  # three standard errors: a correct model fails such a check about once in 370 seeds
+
+
+def model(spec: FaultSpec, m: int, seed: int = 1) -> FaultModel:
+    fm = FaultModel(spec, [f"R{j}" for j in range(m)])
+    fm.reset(np.random.default_rng(seed))
+    return fm
+
+
+def test_time_to_failure_is_exponential_with_the_mean():
+    fm = model(FaultSpec(mttf_s=250.0), 4000)
+    ttf = fm.next_fail_s
+    se = 250.0 / math.sqrt(ttf.size)  # standard error of the mean of exponentials
+    assert abs(ttf.mean() - 250.0) < Z3 * se
+    # the median of an exponential is mean * ln 2
+    assert abs(np.median(ttf) / (250.0 * math.log(2)) - 1.0) < 0.05
+
+
+def test_per_robot_means_and_robots_that_never_break():
+    spec = FaultSpec(mttf_s=100.0, mttf_by_robot=(("R0", math.inf), ("R1", 1000.0)))
+    assert spec.mttf_per_robot(["R0", "R1", "R2"]).tolist() == [math.inf, 1000.0, 100.0]
+    draws = np.array([model(spec, 3, seed).next_fail_s for seed in range(2000)])
+    assert np.isinf(draws[:, 0]).all()
+    for j, mean in ((1, 1000.0), (2, 100.0)):
+        assert abs(draws[:, j].mean() - mean) < Z3 * mean / math.sqrt(2000)
+
+
+def test_fixed_repair_takes_exactly_the_repair_time():
+    fm = model(FaultSpec(mttf_s=50.0, repair_s=12.5), 5)
+    t0 = float(fm.next_fail_s.min())
+    j = int(fm.next_fail_s.argmin())
+    broke, fixed = fm.step(t0)
+    assert broke == [j] and fixed == []
+    assert fm.broken_now()[j] and fm.broken_until_s[j] == t0 + 12.5
+    assert fm.next_event_s() <= t0 + 12.5
+    fm.step(t0 + 12.5)
+    assert not fm.broken_now()[j]
+    assert fm.next_fail_s[j] > t0 + 12.5  # a fresh time to failure from the repair
+    assert fm.broken_s[j] == pytest.approx(12.5, rel=1e-12)  # (t0 + 12.5) - t0 in floats
+
+
+def test_exponential_repair_mean():
+    fm = model(FaultSpec(mttf_s=10.0, repair_s=30.0, repair="exponential"), 1)
+    repairs = []
+    while len(repairs) < 3000:
+        t = fm.next_event_s()
+        broke, _ = fm.step(t)
+        if broke:
+            repairs.append(fm.broken_until_s[0] - t)
+    assert abs(np.mean(repairs) - 30.0) < Z3 * 30.0 / math.sqrt(len(repairs))
+
+
+def test_permanent_loss():
+    fm = model(FaultSpec(mttf_s=10.0, p_permanent=1.0), 3)
+    t = float(fm.next_fail_s.max())
+    broke, fixed = fm.step(t)
+    assert sorted(broke) == [0, 1, 2] and fixed == []
+    assert fm.lost.all() and np.isinf(fm.broken_until_s).all()
+    assert fm.next_event_s() == math.inf  # nothing is ever due again
+    assert fm.broken(1e12).all()
+    # the share of permanent failures is p_permanent (one failure per robot: repairs take long)
+    fm = model(FaultSpec(mttf_s=1.0, repair_s=1e12, p_permanent=0.25), 4000)
+    fm.step(1e9)
+    assert fm.failures.tolist() == [1] * 4000
+    assert abs(fm.lost.mean() - 0.25) < Z3 * math.sqrt(0.25 * 0.75 / 4000)
+
+
+def test_availability_is_the_share_of_time_not_broken():
+    fm = model(FaultSpec(mttf_s=30.0, repair_s=10.0), 400, seed=3)
+    fm.step(20_000.0)
+    # renewal process: up on average 30 s, then down 10 s
+    assert abs(fm.availability(20_000.0).mean() - 0.75) < 0.01
+    assert model(FaultSpec(mttf_s=30.0), 2).availability(0.0).tolist() == [1.0, 1.0]
+
+
+def test_same_seed_same_faults_and_state_round_trip():
+    spec = FaultSpec(mttf_s=20.0, repair_s=5.0, repair="exponential", p_permanent=0.1)
+    a, b = model(spec, 6, 9), model(spec, 6, 9)
+    a.step(100.0)
+    b.step(100.0)
+    arrays = a.state_arrays()
+    assert all(isinstance(v, np.ndarray) and v.dtype != object for v in arrays.values())
+    c = model(spec, 6, 0)
+    c.restore_arrays(arrays)
+    a.step(400.0)
+    c.step(400.0)
+    b.step(400.0)
+    for key in ("next_fail_s", "broken_until_s", "lost", "failures", "broken_s"):
+        assert np.array_equal(a.state_arrays()[key], c.state_arrays()[key]), key
+        assert np.array_equal(a.state_arrays()[key], b.state_arrays()[key]), key
+
+
+def test_fault_generator_leaves_the_world_generator_alone():
+    rng = np.random.default_rng(np.random.SeedSequence(5).spawn(3)[1])
+    twin = np.random.default_rng(np.random.SeedSequence(5).spawn(3)[1])
+    seq = fault_seed_sequence(rng)
+    assert np.array_equal(rng.random(8), twin.random(8))
+    assert seq.spawn_key[:-1] == (1,)
+    # deterministic, and not one of the run's three generators
+    assert fault_seed_sequence(twin).entropy == seq.entropy
+    assert seq.spawn_key not in {(0,), (1,), (2,)}
+
+
+def test_no_or_empty_faults_table_builds_nothing(paper):
+    doc, _ = read_toml(resolve("paper"))
+    empty = parse_scenario({**doc, "faults": {}})
+    assert not empty.has_faults and build_faults(empty) is None
+    assert AbstractWorld(empty).faults is None
+    assert not paper.has_faults
+    some = parse_scenario({**doc, "faults": {"mttf_s": 100.0, "policy": "drop"}})
+    assert some.has_faults and some.faults.policy == "drop"
+
+
+def test_abstract_world_abandons_the_task_of_a_broken_robot(tiny):
+    sc = dataclasses.replace(tiny, faults=FaultSpec(mttf_s=1e9, repair_s=20.0))
+    world = AbstractWorld(sc)
+    world.reset(np.random.default_rng(0))
+    world.faults.next_fail_s[:] = [5.0, np.inf, np.inf]  # R1 breaks at 5 s
+    batch = Batch(0, 0, np.array([10, 11]), np.array([0, 1]), np.zeros(2, bool), np.zeros((2, 2)))
+    world.apply(batch, np.array([0, 2]), np.array([1.0, 1.0]))
+    done = world.advance(10.0)
+    assert [c.task_id for c in done] == []  # both take 15 s
+    (ab,) = world.take_abandoned()
+    assert (ab.task_id, ab.robot, ab.t_alloc_s, ab.t_s) == (10, 0, 0.0, 5.0)
+    snap = world.snapshot()
+    assert snap.broken.tolist() == [True, False, False]
+    assert snap.free.tolist() == [False, True, False]
+    assert snap.busy_until_s[0] == 25.0  # repaired at 5 + 20 s
+    done = world.advance(10.0)
+    assert [(c.task_id, c.robot, c.t_done_s) for c in done] == [(11, 2, 15.0)]
+    world.advance(10.0)
+    assert world.snapshot().free.tolist() == [True, True, True]
+    assert world.take_abandoned() == []
+
+
+def corridor(**faults) -> Scenario:
+    """Two robots on the centre line of an empty 20 m x 6 m hall, R1 ahead of R2."""
+    starts = ((8.0, 3.0), (3.0, 3.0))
+    sp = SpatialSpec(20.0, 6.0, (), (((16.0, 3.0), (8.0, 3.0)),), DriveSpec())
+    robots = tuple(RobotSpec(f"R{j + 1}", (0,), xy) for j, xy in enumerate(starts))
+    return Scenario(
+        "corridor", ("A",), robots, ((1.0,),) * 2, (2.0,), spatial=sp, faults=FaultSpec(**faults)
+    )
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_broken_robot_stops_and_the_other_plans_round_it(control):
+    world = PymunkWorld(corridor(mttf_s=1e9, repair_s=1e6), control=control)
+    world.reset(np.random.default_rng(0))
+    world.faults.next_fail_s[:] = [2.0, np.inf]  # R1 breaks 2 s into its drive
+    sites = np.array([[16.0, 3.0], [16.0, 3.0]])
+    batch = Batch(0, 0, np.array([0]), np.zeros(1, int), np.zeros(1, bool), sites[:1])
+    world.apply(batch, np.array([0]), np.ones(1))
+    world.advance(2.0)
+    (ab,) = world.take_abandoned()
+    assert ab.robot == 0 and ab.task_id == 0
+    assert world.fleet.state[0] == IDLE and world.fleet.task[0] == -1
+    snap = world.snapshot()
+    assert snap.broken.tolist() == [True, False] and not snap.free[0]
+    world.advance(3.0)  # it brakes to a stop
+    stop_xy = world.poses()[0][0].copy()
+    # R2 is sent to the site straight beyond R1: its path goes round the broken robot
+    batch = Batch(0, 1, np.array([1]), np.zeros(1, int), np.zeros(1, bool), sites[1:])
+    world.apply(batch, np.array([1]), np.ones(1))
+    plan = world.path_planner.path(world.poses()[0][1], sites[1])
+    assert len(plan) > 2  # not the straight line through R1
+    inflate = world.path_planner.inflate_m
+    seg = _segment_distance(stop_xy, plan)
+    assert seg >= inflate - 1e-6
+    done = []
+    for _ in range(60):
+        done += world.advance(1.0)
+        if done:
+            break
+    assert [(c.task_id, c.ok) for c in done] == [(1, True)], done
+    assert np.linalg.norm(world.poses()[0][0] - stop_xy) < 0.05  # R1 stayed where it stopped
+    assert world.take_abandoned() == []
+
+
+def _segment_distance(p: np.ndarray, path: np.ndarray) -> float:
+    """Least distance from point p to the polyline ``path``."""
+    best = np.inf
+    for a, b in itertools.pairwise(path):
+        d = b - a
+        t = np.clip(np.dot(p - a, d) / max(np.dot(d, d), 1e-12), 0.0, 1.0)
+        best = min(best, float(np.linalg.norm(a + t * d - p)))
+    return best

@@ -102,10 +102,10 @@ class ExperienceModel:
             self.behaviour_[j, i],
         ) = state
 
-    def replay(self, j: int, i: int, state: tuple, auctions) -> tuple:
-        """Robot j's (type i) experience after the T_i ``auctions`` (pairs (bidders, won))
-        observed from ``state``, with the same arithmetic as :meth:`observe_auction`; the model
-        itself is not changed."""
+    def replay(self, state: tuple, auctions) -> tuple:
+        """One robot's experience of one type (``state``, as :meth:`robot_state` gives it)
+        after the ``auctions`` of that type it bid in (pairs (number of bidders, won)), with
+        the same arithmetic as :meth:`observe_auction`; the model itself is not changed."""
         eta, mu, v, v_sum, count, behaviour = state
         for n_bidders, won in auctions:
             mu = mu + 1.0 / n_bidders

@@ -123,7 +123,7 @@ class ExpTAllocator(QLAllocator):
         exp = self.experience_
         refused = exp.behaviour_[robot, i] == B2_REFUSED
         withheld = [(n, False) for n, _ in auctions]
-        exp.set_robot_state(robot, i, exp.replay(robot, i, before, withheld))
+        exp.set_robot_state(robot, i, exp.replay(before, withheld))
         if refused:
             exp.behaviour_[robot, i] = B2_REFUSED
 

@@ -144,3 +144,33 @@ def test_without_sticky_b1_a_robot_goes_back_to_regular_and_refusal_stays():
     for winner in (1, 0):
         with_sticky.observe_auction(0, both, winner)
     assert with_sticky.behaviour_[1, 0] == B1_EAGER_HESITANT  # sticky: stays in behaviour 1
+
+
+@pytest.mark.parametrize("sticky", [True, False])
+@pytest.mark.parametrize("delta_v", [0.05, 0.2])
+def test_replay_is_observe_auction_without_changing_the_model(sticky, delta_v):
+    """``replay`` (used to withhold the experience of an abandoned win) must give, for one
+    robot and type, exactly what ``observe_auction`` gives for the same auctions; random
+    sequences of auctions (seeded), robot 0 bidding in each with 1-4 others."""
+    rng = np.random.default_rng(17)
+    spec = ExperienceSpec(delta_v=delta_v, sticky_b1=sticky)
+    for _ in range(30):
+        live = ExperienceModel(np.ones((5, 2), dtype=bool), spec)
+        for _ in range(int(rng.integers(0, 6))):  # some history first, on both types
+            live.observe_auction(int(rng.integers(2)), np.arange(int(rng.integers(1, 6))), 0)
+        if not sticky and rng.random() < 0.3:
+            live.behaviour_[0, 1] = 2  # refused: replay keeps it, as observe_auction does
+        before = live.robot_state(0, 1)
+        auctions = []
+        for _ in range(int(rng.integers(1, 8))):
+            n = int(rng.integers(1, 6))
+            won = bool(rng.random() < 0.5)
+            auctions.append((n, won))
+        kept = [np.copy(a) for a in (live.eta_, live.mu_, live.v_, live.v_sum_, live.count_)]
+        got = live.replay(before, auctions)
+        after = [live.eta_, live.mu_, live.v_, live.v_sum_, live.count_]
+        assert all(np.array_equal(a, b) for a, b in zip(kept, after, strict=True))
+        for n, won in auctions:
+            live.observe_auction(1, np.arange(n), 0 if won else -1)  # robot 0 won, or nobody
+        want = live.robot_state(0, 1)
+        assert [float(x) for x in got] == [float(x) for x in want]

@@ -12,8 +12,10 @@ import learning.checkpoint as ck
 from allocation.costs import make_cost_model
 from learning import ALLOCATORS
 from learning.episode import InvariantError, run_protocol
+from learning.experience import B2_REFUSED
 from learning.exptmrta import ExpTAllocator
 from learning.fates import FATES, FateError, FateLedger
+from learning.qlmrta import QLAllocator
 from scenarios.protocol import RunSpec, execute
 from sim.scenario import FaultSpec
 from sim.tasks import Batch, generate_stream
@@ -308,3 +310,25 @@ def test_abstract_resume_with_faults_equals_straight_run(tmp_path, monkeypatch):
     assert "world/faults/next_fail_s" in arrays
     resumed = execute(spec, checkpoint=tmp_path / "b.npz", resume=True)
     assert resumed == straight
+
+
+@pytest.mark.parametrize("cls", [QLAllocator, ExpTAllocator])
+def test_an_abandoned_task_frees_only_its_robot_of_a_low_task(tiny, cls):
+    alloc = cls(tiny)
+    alloc.reset(np.random.default_rng(0))
+    alloc.busy_low_[:] = True
+    alloc.task_abandoned(1, 0)
+    assert alloc.busy_low_.tolist() == [True, False, True]
+
+
+def test_expt_keeps_a_refusal_made_after_the_abandoned_win(tiny):
+    alloc = ExpTAllocator(tiny)
+    alloc.reset(np.random.default_rng(0))
+    alloc.begin_set(0, learning=True)
+    state = WorldState(0.0, np.ones(3, bool), np.zeros(3))
+    b = Batch(0, 0, np.array([0]), np.array([0]), np.array([True]), np.zeros((1, 2)))
+    alloc.allocate(state, b, np.array([[1.0], [2.0], [np.inf]]))
+    alloc.experience_.behaviour_[0, 0] = B2_REFUSED  # refused meanwhile
+    alloc.task_abandoned(0, 0)
+    assert alloc.experience_.behaviour_[0, 0] == B2_REFUSED
+    assert alloc.experience_.eta_[0, 0] == 0.0  # the win is withheld all the same

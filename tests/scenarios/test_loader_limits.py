@@ -8,6 +8,7 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from scenarios.loader import MAX_HISTORY, ScenarioError, load_scenario, locate, parse_scenario
@@ -100,3 +101,31 @@ def test_a_site_exactly_robot_radius_plus_clearance_from_a_wall_is_accepted(x):
     d = doc()  # paper_spatial: 20 m wide, robot radius 0.25 m, clearance 0.1 m
     d["spatial"]["sites"]["T1"][0] = [x, 10.0]
     assert parse_scenario(d).spatial.sites[0][0] == (x, 10.0)
+
+
+def test_faults_by_robot_and_the_words_for_never():
+    d = doc("paper")
+    d["faults"] = {"mttf_s": "inf", "mttf_by_robot": {"R2": 500, "R7": "inf"}, "p_permanent": 1.0}
+    sc = parse_scenario(d)
+    assert sc.faults.mttf_s == float("inf")
+    assert sc.faults.mttf_by_robot == (("R2", 500.0), ("R7", float("inf")))
+    names = [r.name for r in sc.robots]
+    per = sc.faults.mttf_per_robot(names)
+    assert per[names.index("R2")] == 500.0 and np.isinf(np.delete(per, names.index("R2"))).all()
+    assert sc.faults.p_permanent == 1.0  # the upper bound is allowed: every failure for good
+    d["faults"] = {"mttf_s": float("inf")}
+    assert parse_scenario(d).faults.mttf_s == float("inf")
+
+
+@pytest.mark.parametrize(
+    ("value", "part"),
+    [
+        (-0.1, "faults.p_permanent: must be >= 0"),
+        (1.5, "faults.p_permanent: probability 1.5 outside [0, 1]"),
+        ("often", "faults.p_permanent"),
+    ],
+)
+def test_faults_p_permanent_is_named_when_refused(value, part):
+    d = doc("paper")
+    d["faults"] = {"mttf_s": 600, "p_permanent": value}
+    assert part in fails(d)

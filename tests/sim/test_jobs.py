@@ -938,3 +938,22 @@ def test_refresh_lists_follows_the_fleet_state(control):
         assert sch.steer_list == [1, 3]
     else:  # the array control keeps none
         assert sch.state_list == ["stale"] and sch.steer_list == ["stale"]
+
+
+def test_abandon_gives_up_the_task_where_the_robot_stands():
+    world = make_world([(2.0, 2.0), (5.0, 2.0)])
+    at(world, 12.5)
+    give(world, [0, 1], [(10.0, 2.0), (12.0, 8.0)], ids=[41, 42], bids=[3.5, 4.5])
+    f = world.fleet
+    f.stuck_left_m[1], f.replan[1], f.backoff_until_s[1] = 4.0, True, 30.0
+    f.t_progress_s[1], f.yielding[1] = 13.0, True
+    t = at(world, 20.0)
+    out = world.jobs.abandon(1, t)
+    assert (out.task_id, out.robot, out.t_alloc_s, out.t_s, out.bid) == (42, 1, 12.5, t, 4.5)
+    assert type(out.t_alloc_s) is float and type(out.bid) is float
+    assert (f.task[1], f.state[1]) == (-1, IDLE)
+    assert f.stuck_left_m[1] == np.inf and not f.replan[1] and f.backoff_until_s[1] == -np.inf
+    assert f.t_progress_s[1] == np.inf and not f.yielding[1]
+    assert world.follower.last[1] == -1 and len(waypoints(world, 0)) > 1  # only its path went
+    assert world.schedule.n_steer == 1 and world.schedule.n_yield == 0  # refreshed
+    assert (f.task[0], f.state[0]) == (41, DRIVING)

@@ -957,3 +957,13 @@ def test_abandon_gives_up_the_task_where_the_robot_stands():
     assert world.follower.last[1] == -1 and len(waypoints(world, 0)) > 1  # only its path went
     assert world.schedule.n_steer == 1 and world.schedule.n_yield == 0  # refreshed
     assert (f.task[0], f.state[0]) == (41, DRIVING)
+
+
+def test_step_clear_skips_a_broken_robot_and_serves_the_next():
+    w = orca_world([(4.0, 5.0), (10.0, 5.0)])
+    for b in w.motors.bodies:
+        b.angle = 0.0
+    w.jobs.broken[:] = [True, False]
+    w.jobs.step_clear([0, 1], 3.0)  # robot 0 cannot move; robot 1 still steps clear
+    assert w.fleet.yielding.tolist() == [False, True]
+    assert w.follower.last[0] == -1 and len(waypoints(w, 1)) == 2

@@ -174,3 +174,11 @@ def test_replay_is_observe_auction_without_changing_the_model(sticky, delta_v):
             live.observe_auction(1, np.arange(n), 0 if won else -1)  # robot 0 won, or nobody
         want = live.robot_state(0, 1)
         assert [float(x) for x in got] == [float(x) for x in want]
+
+
+def test_replay_knows_at_exactly_delta_v():
+    """Eq. (10)'s boundary in replay as in observe_auction: |v - 1| equal to delta_v counts."""
+    v = float(tep(np.array([1.0]), np.array([0.5]))[0])  # one auction of 2 bidders, won
+    exp = ExperienceModel(np.ones((1, 1), dtype=bool), ExperienceSpec(delta_v=abs(v - 1.0)))
+    got = exp.replay(exp.robot_state(0, 0), [(2, True)])
+    assert got[2] == v and got[5] == B1_EAGER_HESITANT

@@ -332,3 +332,21 @@ def test_expt_keeps_a_refusal_made_after_the_abandoned_win(tiny):
     alloc.task_abandoned(0, 0)
     assert alloc.experience_.behaviour_[0, 0] == B2_REFUSED
     assert alloc.experience_.eta_[0, 0] == 0.0  # the win is withheld all the same
+
+
+def test_expt_forgets_the_credit_of_a_finished_task(tiny):
+    """A robot seen free again has finished its task: its credit is dropped (so a later
+    abandonment cannot withhold it); a robot still at work keeps its credit."""
+    alloc = ExpTAllocator(tiny)
+    alloc.reset(np.random.default_rng(0))
+    alloc.begin_set(0, learning=True)
+    b = Batch(0, 0, np.array([0]), np.array([0]), np.array([True]), np.zeros((1, 2)))
+    alloc.allocate(
+        WorldState(0.0, np.ones(3, bool), np.zeros(3)), b, np.array([[1.0], [2.0], [np.inf]])
+    )
+    assert set(alloc.credit_) == {0}
+    nobody = np.full((3, 1), np.inf)  # no robot can take the next task
+    alloc.allocate(WorldState(10.0, np.array([False, True, True]), np.zeros(3)), b, nobody)
+    assert set(alloc.credit_) == {0}  # robot 0 still at work
+    alloc.allocate(WorldState(20.0, np.array([True, False, False]), np.zeros(3)), b, nobody)
+    assert alloc.credit_ == {}  # robot 0 free again: done, nothing to withhold

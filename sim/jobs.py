@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim.drive import DiffDriveController
+from sim.drive_law import SPEED_BOUND, next_check_s
 from sim.fleet import Clock, FleetState, Schedule
 from sim.paths import PathFollower
 from sim.planning import GridPlanner
@@ -27,9 +28,16 @@ YIELD_STEP_M = 1.0  # how far an idle robot steps aside
 YIELD_TIMEOUT_S = 6.0
 DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
 DEADLOCK_M = 1.5  # driving robots this close, one of them stuck: a deadlock (avoidance on)
-SLOTS = 6  # service slots on a ring around each service point (collision avoidance on)
-SLOT_GAP_M = 0.15  # a slot's centre keeps this much air to the robot on the service point
+SLOTS = 4  # service slots on a ring around each service point (collision avoidance on)
+SLOT_GAP_M = 0.35  # a robot in a slot keeps this much air to the one on the service point, m
 PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
+QUEUE_M = 2.5  # avoidance on: a robot this close to a site with every place taken holds here
+CROWD_M = 1.0  # ... as does one this close (centres) to a robot already holding for that site
+EXIT_M = 1.5  # a robot that finished where others hold drives this far beyond QUEUE_M out
+EXIT_TIMEOUT_S = 20.0  # ... and gives up driving out after this long
+AROUND_M = 3.0  # avoidance on: a stuck robot plans round the robots this close (centres), m
+DETOUR_FACTOR = 3.0  # ... and takes that path if at most this times the path it had ...
+DETOUR_EXTRA_M = 10.0  # ... plus this, m
 
 
 class Jobs:
@@ -53,7 +61,10 @@ class Jobs:
             stands on the service point another robot comes for steps ``YIELD_STEP_M`` clear
             of it, one at work there sends the newcomer to a service slot
             (:meth:`take_slots`), and a robot whose site is taken by a robot at work waits for
-            that work to end instead of recovering.
+            that work to end instead of recovering. Sites also keep a queue (:meth:`queue`):
+            within ``QUEUE_M`` of a site whose every place (service point and free slots) is
+            taken, a robot holds where it is, first come first served, and one that finished
+            there drives out past the crowd (:meth:`leave`).
 
     Attributes:
         done: completions not yet handed out by the world.
@@ -88,6 +99,14 @@ class Jobs:
         self.clear_sites = clear_sites
         self.slotted = np.zeros(len(fleet.state), dtype=bool)  # working toward a service slot
         self.origin = fleet.site.copy()  # where each robot was given its task (x + iy), m
+        m = len(fleet.state)
+        self.service = fleet.site.copy()  # the service point of each robot's task (x + iy), m
+        self.admitted = np.zeros(m, dtype=bool)  # let in to its site: a place is kept for it
+        self.holding = np.zeros(m, dtype=bool)  # holding in its site's queue
+        self.hold_since_s = np.full(m, np.inf)  # when it began to hold, s
+        self.queue_check_s = -np.inf  # no robot can come within QUEUE_M of its site before
+        self.around_s = np.full(m, -np.inf)  # when each robot last planned round others, s
+        self._places: dict[complex, np.ndarray] = {}  # service point and free slots per site
         self.done: list[Completion] = []
         self.failures = 0
         self.broken = np.zeros(len(fleet.state), dtype=bool)  # set by the world (sim.faults)
@@ -118,6 +137,9 @@ class Jobs:
             f.yielding[j] = False
             self.slotted[j] = False
             self.origin[j] = complex(*xy_m[j])
+            self.service[j] = f.site[j]
+            self.admitted[j] = self.holding[j] = False
+            self.hold_since_s[j] = np.inf
             self.follower.clear(j)
             path = self.planner.path(xy_m[j], site)
             if not len(path):
@@ -130,6 +152,7 @@ class Jobs:
             f.left_m[j], f.progress_m[j], f.t_progress_s[j] = length, np.inf, t
             f.deadline_s[j] = t + self.exec_time_s[f.task_type[j]] + 4 * length / v_max + slack
         self.schedule.site_check_s = -np.inf
+        self.queue_check_s = -np.inf
         self.refresh()
 
     def busy_until_s(self, t: float) -> np.ndarray:
@@ -184,6 +207,8 @@ class Jobs:
     def end_due(self, t: float) -> None:
         """End the work that is done and the tasks past their deadline."""
         f = self.fleet
+        if self.clear_sites and t >= self.queue_check_s:
+            self.queue(t)
         if t + 1e-9 >= self.schedule.next_end_s:
             self.finish_work(t)
         if t > self.schedule.next_deadline_s:
@@ -219,6 +244,9 @@ class Jobs:
         f.backoff_until_s[j] = -np.inf
         f.t_progress_s[j] = np.inf
         self.follower.clear(j)
+        if self.clear_sites:
+            self.admitted[j] = self.holding[j] = False
+            self.leave(j, t_done_s)
         if refresh:
             self.refresh()
 
@@ -233,6 +261,7 @@ class Jobs:
         f.backoff_until_s[j] = -np.inf
         f.t_progress_s[j] = np.inf
         f.yielding[j] = False
+        self.admitted[j] = self.holding[j] = False
         self.follower.clear(j)
         self.refresh()
         return out
@@ -264,7 +293,7 @@ class Jobs:
             if taken.any():  # its site is taken by a robot at work: wait for it to step clear
                 f.t_progress_s[j] = float(f.work_end_s[taken].min())
                 return
-            if self.give_way(j, t):
+            if self.go_round(j, t) or self.give_way(j, t):
                 return
         f.recoveries[j] += 1
         f.stuck_left_m[j] = f.left_m[j]  # where it got stuck (path left to drive)
@@ -338,6 +367,35 @@ class Jobs:
         self.follower.set_paths(rows, paths)
         self.refresh()
 
+    def go_round(self, j: int, t: float) -> bool:
+        """Robot j is stuck among other robots (collision avoidance on; within ``AROUND_M``):
+        it plans a path to its site with them as obstacles (``GridPlanner.path_around``) and
+        takes it if it is at most ``DETOUR_FACTOR`` times the path it had plus
+        ``DETOUR_EXTRA_M``, counting a try. If one of them has just done so in this check, j
+        waits one stuck timeout for it instead. False, and nothing changes, when no robot is
+        near, j has used its tries or no such path exists (then :meth:`give_way`)."""
+        f, z = self.fleet, self.fleet.last_z_m
+        close = np.abs(z - z[j]) < AROUND_M
+        close[j] = False
+        if not close.any() or f.recoveries[j] >= self.spatial.max_recoveries:
+            return False
+        if (self.around_s[close] == t).any():  # another of this jam just went round
+            f.t_progress_s[j] = t
+            return True
+        site = (f.site[j].real, f.site[j].imag)
+        path = self.planner.path_around((z[j].real, z[j].imag), site, z[close], self.controller.radius_m)
+        if not len(path):
+            return False
+        length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+        if length > DETOUR_FACTOR * f.left_m[j] + DETOUR_EXTRA_M:
+            return False
+        f.recoveries[j] += 1
+        self.around_s[j] = t
+        self.follower.set_path(j, path)
+        f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.refresh()
+        return True
+
     def give_way(self, j: int, t: float) -> bool:
         """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot
         j and the driving robots within ``DEADLOCK_M``, the one with the highest index goes
@@ -345,7 +403,7 @@ class Jobs:
         free) and only then on to its site, so the others get through; the others wait.
         True if j gave way or waits."""
         f, z = self.fleet, self.fleet.last_z_m
-        close = (f.state == DRIVING) & (np.abs(z - z[j]) < DEADLOCK_M)
+        close = (f.state == DRIVING) & ~self.holding & (np.abs(z - z[j]) < DEADLOCK_M)
         close[j] = False
         if not close.any():
             return False
@@ -379,8 +437,10 @@ class Jobs:
         changed, idle = False, []
         for j in rows:
             site = f.site[j]
-            if self.slotted[j] or not len(standing) or np.abs(z[standing] - site).min() >= room:
-                continue  # a slot already, or the service point is free
+            if self.slotted[j] or self.holding[j]:
+                continue  # a slot already, or holding in the site's queue
+            if not len(standing) or np.abs(z[standing] - site).min() >= room:
+                continue  # the service point is free
             on_it = standing[np.abs(z[standing] - site) < room]
             if (f.state[on_it] == IDLE).all():  # finished there: it steps clear
                 idle += [int(b) for b in on_it if not f.yielding[b] and int(b) not in idle]
@@ -405,6 +465,156 @@ class Jobs:
             self.step_clear(idle, t)
         if changed or idle:
             self.refresh()
+
+    def queue(self, t: float) -> None:
+        """Site queues (collision avoidance on). A driving robot not yet let in that is within
+        ``QUEUE_M`` of its site, or within ``CROWD_M`` of a robot holding for that site, is let
+        in while the site has a free place (its service point and obstacle-free slots, less
+        the robots let in or at work there), first come first served; otherwise it holds
+        where it is (a path to its own position; its stuck clock stopped, so it is drawn as
+        waiting) until a place is free. The deadline of a robot let in after holding moves on
+        by the time it held. Schedules the next check."""
+        f, z = self.fleet, self.fleet.last_z_m
+        driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t)
+        if not driving.any():
+            self.queue_check_s = np.inf
+            return
+        gap = np.abs(z - self.service)
+        cand = driving & ~self.admitted
+        near = cand & (gap < QUEUE_M)
+        held = self.holding.nonzero()[0]
+        if len(held):
+            rest = cand.nonzero()[0]
+            same = np.abs(self.service[rest, None] - self.service[held][None, :]) < 1e-6
+            crowd = same & (np.abs(z[rest, None] - z[held][None, :]) < CROWD_M)
+            near[rest[crowd.any(axis=1)]] = True
+        far = float(np.where(driving & (gap >= QUEUE_M), gap, np.inf).min()) - QUEUE_M
+        self.queue_check_s = next_check_s(t, far, SPEED_BOUND * self.follower.v_max_mps)
+        if (driving & (gap < QUEUE_M)).any():  # robots hold or come in: look next period
+            self.queue_check_s = t
+        rows = near.nonzero()[0]
+        if len(rows):
+            self.let_in_or_hold(rows, gap, t)
+        self.clear_loiterers(driving & self.admitted & (gap < QUEUE_M), t)
+
+    def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
+        """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them)."""
+        f, z = self.fleet, self.fleet.last_z_m
+        inside = self.admitted | (f.state == WORKING)
+        changed = False
+        for site in np.unique(self.service[rows]).tolist():
+            mine = rows[np.abs(self.service[rows] - site) < 1e-6]
+            mine = mine[np.lexsort((gap[mine], self.hold_since_s[mine]))]  # first come first
+            taken = int(np.count_nonzero(inside & (np.abs(self.service - site) < 1e-6)))
+            free = len(self.place_points(site)) - taken
+            for j in mine.tolist():
+                if free > 0:
+                    free -= 1
+                    changed |= self.let_in(j, t)
+                elif not self.holding[j]:
+                    self.holding[j], self.hold_since_s[j] = True, t
+                    here = np.array([[z[j].real, z[j].imag]] * 2)
+                    self.follower.set_path(j, here)
+                    f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
+                    changed = True
+        if changed:
+            self.refresh()
+
+    def let_in(self, j: int, t: float) -> bool:
+        """Robot j may go to its site now: it is given the free place (service point first, else
+        the nearest free slot) that no robot let in or at work there keeps and no standing robot
+        takes; one that held has its deadline moved on by the time it held. True if its path
+        changed."""
+        f, r = self.fleet, self.controller.radius_m
+        z, site = f.last_z_m, self.service[j]
+        self.admitted[j] = True
+        place = site
+        cand = self.place_points(site)
+        mine = (self.admitted | (f.state == WORKING)) & (np.abs(self.service - site) < 1e-6)
+        mine[j] = False
+        kept = f.site[mine]
+        standing = ((f.state != DRIVING) & ~f.yielding).nonzero()[0]
+        room = 2.0 * r + 0.5 * SLOT_GAP_M
+        taken = np.zeros(len(cand), dtype=bool)
+        if len(kept):
+            taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < 1e-6
+        if len(standing):
+            taken |= np.abs(z[standing][:, None] - cand[None, :]).min(axis=0) < room
+        if not taken.all():
+            free = (~taken).nonzero()[0]
+            k = 0 if free[0] == 0 else int(free[np.abs(cand[free] - z[j]).argmin()])
+            place = cand[k]
+        held = self.holding[j]
+        if held:
+            self.holding[j] = False
+            f.deadline_s[j] += t - self.hold_since_s[j]
+            self.hold_since_s[j] = np.inf
+        if place == f.site[j] and not held:
+            return False
+        f.site[j] = place
+        self.slotted[j] = place != site
+        path = self.planner.path((z[j].real, z[j].imag), (place.real, place.imag))
+        if len(path):
+            self.follower.set_path(j, path)
+        f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.schedule.site_check_s = -np.inf
+        return True
+
+    def place_points(self, site: complex) -> np.ndarray:
+        """The places of ``site``: its service point, then its obstacle-free service slots
+        (``SLOTS`` on a ring two robot radii plus ``SLOT_GAP_M`` round it), x + iy (cached)."""
+        if site not in self._places:
+            ring = 2.0 * self.controller.radius_m + SLOT_GAP_M
+            cand = site + ring * np.exp(2j * np.pi * np.arange(SLOTS) / SLOTS)
+            ok = self.planner.free(np.column_stack([cand.real, cand.imag]))
+            self._places[site] = np.concatenate([[site], cand[ok]])
+        return self._places[site]
+
+    def clear_loiterers(self, coming: np.ndarray, t: float) -> None:
+        """Idle robots standing within ``QUEUE_M`` of a site that robots ``coming`` (a mask)
+        have been let in to drive out (:meth:`leave`)."""
+        f = self.fleet
+        idle = (f.state == IDLE) & ~f.yielding & ~self.broken
+        if not (idle.any() and coming.any()):
+            return
+        sites = np.unique(self.service[coming])
+        near = np.abs(f.last_z_m[idle][:, None] - sites[None, :]) < QUEUE_M
+        moved = False
+        for j, k in zip(*near.nonzero(), strict=True):
+            j = int(idle.nonzero()[0][j])
+            if not f.yielding[j]:
+                moved |= self.leave(j, t, complex(sites[k]))
+        if moved:
+            self.refresh()
+
+    def leave(self, j: int, t: float, site: complex | None = None) -> bool:
+        """Robot j finished (or failed, or stands idle) near ``site`` (its task's by default)
+        that other robots come to (within ``QUEUE_M + EXIT_M``): it drives out,
+        ``EXIT_M`` beyond ``QUEUE_M`` from the site, straight away from it where that is free
+        (else turned by up to 150 degrees either way), so the next in the queue gets its
+        place. True if it drives out; the caller calls :meth:`refresh`."""
+        f, z = self.fleet, self.fleet.last_z_m[j]
+        site = self.service[j] if site is None else site
+        if abs(z - site) >= QUEUE_M or self.broken[j]:
+            return False
+        coming = (f.state == DRIVING) & (np.abs(self.service - site) < 1e-6)
+        coming &= np.abs(f.last_z_m - site) < QUEUE_M + EXIT_M
+        if not coming.any():
+            return False
+        away = z - site
+        if abs(away) < 1e-3:
+            away = -np.exp(1j * self.bodies[j].angle)
+        away /= abs(away)
+        turns = np.radians([0, 30, -30, 60, -60, 90, -90, 120, -120, 150, -150])
+        ends = site + (QUEUE_M + EXIT_M) * away * np.exp(1j * turns)
+        ok = self.planner.free(np.column_stack([ends.real, ends.imag]))
+        for end in ends[ok].tolist():
+            path = self.planner.path((z.real, z.imag), (end.real, end.imag))
+            if len(path):
+                self.follower.set_path(j, path)
+                f.yielding[j], f.yield_until_s[j] = True, t + EXIT_TIMEOUT_S
+                return True
+        return False
 
     def step_clear(self, rows: list[int], t: float) -> None:
         """Idle robots ``rows`` stand on a service point another robot comes for: each steps
@@ -433,6 +643,11 @@ class Jobs:
         return {
             "slotted": self.slotted.copy(),
             "origin": self.origin.copy(),
+            "service": self.service.copy(),
+            "admitted": self.admitted.copy(),
+            "holding": self.holding.copy(),
+            "hold_since_s": self.hold_since_s.copy(),
+            "queue_check_s": np.array(self.queue_check_s),
             "failures": np.array(self.failures, dtype=np.int64),
         }
 
@@ -440,6 +655,13 @@ class Jobs:
         """Inverse of :meth:`state_arrays`, then the schedule's lists and counts again."""
         self.slotted = np.array(arrays["slotted"], dtype=bool)
         self.origin = np.array(arrays["origin"], dtype=complex)
+        m = len(self.origin)
+        # checkpoints written before site queues existed hold none of these: nobody queued
+        self.service = np.array(arrays.get("service", self.fleet.site), dtype=complex)
+        self.admitted = np.array(arrays.get("admitted", np.zeros(m)), dtype=bool)
+        self.holding = np.array(arrays.get("holding", np.zeros(m)), dtype=bool)
+        self.hold_since_s = np.array(arrays.get("hold_since_s", np.full(m, np.inf)), dtype=float)
+        self.queue_check_s = float(arrays.get("queue_check_s", -np.inf))
         self.failures = int(arrays["failures"])
 
     def stop_yield(self, j: int) -> None:

@@ -470,6 +470,24 @@ class GridPlanner:
             pts.append(goal)
         return np.array(pts)
 
+    def path_around(self, start_xy, goal_xy, robots: np.ndarray, radius_m: float) -> np.ndarray:
+        """:meth:`path` with the robots at ``robots`` (x + iy, m) as obstacles too: each an
+        octagon round a disc of ``radius_m`` (the robot's body), grown like every obstacle by
+        a robot radius plus the clearance. A start inside such a grown robot is pushed out of
+        it first. For the rare re-plan of a robot in a deadlock: it builds a planner of its own
+        (a new visibility graph), milliseconds, and caches nothing."""
+        robots = np.asarray(robots, dtype=complex).reshape(-1)
+        if not len(robots):
+            return self.path(start_xy, goal_xy)
+        corner = radius_m / np.cos(np.pi / 8) * np.exp(1j * (np.pi / 8 + np.pi / 4 * np.arange(8)))
+        rings = robots[:, None] + corner[None, :]
+        octagons = [np.column_stack([r.real, r.imag]) for r in rings]
+        other = GridPlanner.__new__(GridPlanner)
+        other.spatial, other.inflate_m, other.tol_m = self.spatial, self.inflate_m, self.tol_m
+        other.lo_, other.hi_, other.box_ = self.lo_, self.hi_, self.box_
+        other.set_obstacles(list(self.obstacles) + octagons)
+        return other.path(start_xy, goal_xy)
+
     def side_step(
         self, xy: complex, other: complex, travel: complex, step_m: float, avoid: np.ndarray
     ) -> np.ndarray:

@@ -648,20 +648,24 @@ def test_no_give_way_without_a_path_on_to_the_site():
     assert f.recoveries[1] == 0
 
 
-def test_recover_under_avoidance_gives_way_before_counting_a_try():
+def test_recover_under_avoidance_goes_round_before_giving_way():
     w = orca_world([(10.0, 5.0), (4.0, 5.0)])
     f = w.fleet
     deadlock(w, [9.9 + 5j, 9 + 5j])
-    w.jobs.recover(0, 30.0)  # waits for robot 1
-    assert (f.recoveries[0], f.replan[0], f.t_progress_s[0]) == (0, False, 30.0)
+    w.jobs.recover(0, 30.0)  # open floor: a path round robot 1, one try
+    assert (f.recoveries[0], f.replan[0], f.t_progress_s[0]) == (1, False, 30.0)
+    path = waypoints(w, 0)
+    assert path[0] == 9.9 + 5j and path[-1] == 2 + 5j and len(path) > 2
+    w.jobs.recover(1, 30.0)  # robot 0 has just gone round: robot 1 waits for it
+    assert (f.recoveries[1], f.replan[1], f.t_progress_s[1]) == (0, False, 30.0)
     assert w.schedule.recovering is False
 
 
-SLOT_RING = 2 * 0.25 + 0.15  # m, radius of the ring of service slots
+SLOT_RING = 2 * 0.25 + 0.35  # m, radius of the ring of the 4 service slots
 
 
 def slot(site: complex, k: int) -> complex:
-    return site + SLOT_RING * np.exp(2j * np.pi * k / 6)
+    return site + SLOT_RING * np.exp(2j * np.pi * k / 4)
 
 
 def service(w: PymunkWorld, z_newcomer: complex, on_site_state: int = WORKING) -> None:
@@ -679,8 +683,8 @@ def test_newcomer_takes_the_nearest_free_service_slot_beside_a_robot_at_work():
     w.schedule.resting = True
     t = at(w, 12.0)
     jobs.take_slots([0], f.last_z_m, t)
-    k3 = slot(10 + 5j, 3)
-    assert abs(k3 - (9.35 + 5j)) < 1e-12
+    k3 = slot(10 + 5j, 2)
+    assert abs(k3 - (9.15 + 5j)) < 1e-12
     assert f.site[0] == k3
     assert jobs.slotted.tolist() == [True, False]
     assert waypoints(w, 0).tolist() == [8.5 + 5.2j, k3]
@@ -692,21 +696,21 @@ def test_newcomer_takes_the_nearest_free_service_slot_beside_a_robot_at_work():
 
 
 def test_slots_in_an_obstacle_near_a_standing_robot_or_another_robots_goal_are_not_taken():
-    post = [((8.7, 4.8), (9.1, 4.8), (9.1, 5.2), (8.7, 5.2))]  # grown by 0.35 m: covers slot 3
+    post = [((8.7, 4.8), (9.1, 4.8), (9.1, 5.2), (8.7, 5.2))]  # grown by 0.35 m: covers slot 2
     w = orca_world([(4.0, 5.6), (10.0, 5.0), (12.0, 8.0), (14.0, 8.0)], obstacles=post)
     f = w.fleet
     site = 10 + 5j
     service(w, 8.5 + 5.6j)
-    f.last_z_m[3] = slot(site, 2) + 0.574 * np.exp(2j * np.pi / 3)  # just too close to slot 2
+    f.last_z_m[3] = slot(site, 1) + 0.674j  # just too close to slot 1
     give(w, [2], [(12.0, 2.0)])
-    f.site[2] = slot(site, 4)  # robot 2 drives to slot 4
+    f.site[2] = slot(site, 3)  # robot 2 drives to slot 3
     w.jobs.take_slots([0], f.last_z_m, 5.0)
-    assert f.site[0] == slot(site, 1)  # nearest to (8.5, 5.6): 3, 2, 4, then 1
-    assert waypoints(w, 0)[-1] == slot(site, 1)
+    assert f.site[0] == slot(site, 0)  # nearest to (8.5, 5.6): 2, 1, 3, then 0
+    assert waypoints(w, 0)[-1] == slot(site, 0)
 
 
 def test_with_no_free_slot_the_newcomer_waits_where_it_is():
-    ring = [(10 + 5j + 0.65 * np.exp(2j * np.pi * k / 6)) for k in range(6)]
+    ring = [slot(10 + 5j, k) for k in range(4)]
     starts = [(4.0, 5.0), (10.0, 5.0)] + [(p.real, p.imag) for p in ring]
     w = orca_world(starts)
     f = w.fleet
@@ -720,14 +724,15 @@ def test_with_no_free_slot_the_newcomer_waits_where_it_is():
 
 
 def test_newcomer_keeps_its_site_while_the_service_point_is_free():
-    w = orca_world([(4.0, 5.0), (10.0, 5.575), (10.0, 4.6)])
+    w = orca_world([(4.0, 1.0), (10.0, 1.675), (10.0, 0.6)])
     f = w.fleet
-    give(w, [0, 2], [(10.0, 5.0), (16.0, 4.6)])
+    give(w, [0, 2], [(10.0, 1.0), (16.0, 0.6)])
     f.state[1] = WORKING  # 2 radii + SLOT_GAP_M / 2 from the site: not on it
-    f.last_z_m[:3] = [8.5 + 5j, 10 + 5.575j, 10 + 4.6j]  # robot 2 drives: not standing
+    f.last_z_m[:3] = [8.5 + 1j, 10 + 1.675j, 10 + 0.6j]  # robot 2 drives: not standing
+    assert abs(f.last_z_m[1] - f.site[0]) == 2 * 0.25 + 0.5 * 0.35
     w.schedule.resting = True
     w.jobs.take_slots([0], f.last_z_m, 5.0)
-    assert f.site[0] == 10 + 5j and w.jobs.slotted[0] == False  # noqa: E712
+    assert f.site[0] == 10 + 1j and w.jobs.slotted[0] == False  # noqa: E712
     assert w.schedule.resting is True
 
 
@@ -790,12 +795,12 @@ def test_giving_way_counts_a_try_and_needs_half_the_deadlock_distance_to_the_ref
 
 def test_an_idle_robot_on_the_point_steps_clear_even_beside_one_at_work_at_the_slot_ring():
     # the service point (10, 1); robot 2 works exactly 2 radii + SLOT_GAP_M / 2 from it
-    w = orca_world([(6.0, 1.0), (10.0, 1.0), (10.0, 1.575)])
+    w = orca_world([(6.0, 1.0), (10.0, 1.0), (10.0, 1.675)])
     f = w.fleet
     give(w, [0], [(10.0, 1.0)])
     f.state[1:] = [IDLE, WORKING]
-    f.last_z_m[:] = [8.8 + 1j, 10 + 1j, 10 + 1.575j]
-    assert abs(f.last_z_m[2] - f.site[0]) == 2 * 0.25 + 0.5 * 0.15
+    f.last_z_m[:] = [8.8 + 1j, 10 + 1j, 10 + 1.675j]
+    assert abs(f.last_z_m[2] - f.site[0]) == 2 * 0.25 + 0.5 * 0.35
     w.jobs.take_slots([0], f.last_z_m, 4.0)
     assert f.yielding.tolist() == [False, True, False]  # the idle one steps clear
     assert f.site[0] == 10 + 1j and w.jobs.slotted[0] == False  # noqa: E712
@@ -812,7 +817,7 @@ def test_every_newcomer_in_one_call_is_answered():
     w.jobs.take_slots([0, 1, 2], f.last_z_m, 4.0)
     assert f.yielding.tolist() == [False, False, False, True, True, False]
     assert w.jobs.slotted.tolist() == [False, False, True, False, False, False]
-    assert f.site[2] == slot(16 + 8j, 4)
+    assert f.site[2] == slot(16 + 8j, 3)
 
 
 def test_jobs_built_without_avoidance_never_clear_sites_and_track_slots_as_flags():
@@ -853,38 +858,38 @@ def test_a_newcomer_without_a_free_slot_or_a_path_to_one_does_not_stop_the_next(
     f.last_z_m[:] = [2 + 8j, 15 + 5j, 15.8 + 1j, 4 + 5j, 10 + 2j, 16 + 2j]  # 1 is walled in
     w.jobs.take_slots([0, 1, 2], f.last_z_m, 4.0)
     assert w.jobs.slotted.tolist() == [False, False, True, False, False, False]
-    assert f.site[2] == slot(16 + 2j, 4)  # the nearest slot to (15.8, 1) ...
+    assert f.site[2] == slot(16 + 2j, 3)  # the nearest slot to (15.8, 1) ...
     assert f.site[:2].tolist() == [4 + 5j, 10 + 2j]  # ... the others keep their points
 
 
 def test_a_slot_exactly_its_room_from_a_standing_robot_is_free():
     # service point (10, 1); robot 2 stands 2 radii + SLOT_GAP_M / 2 above slot 0
-    w = orca_world([(12.0, 1.0), (10.0, 1.0), (10.65, 1.575)])
+    w = orca_world([(12.0, 1.0), (10.0, 1.0), (10.85, 1.675)])
     f = w.fleet
     give(w, [0], [(10.0, 1.0)])
     f.state[1:] = [WORKING, IDLE]
     f.last_z_m[0] = 11.2 + 1j
     k0 = slot(10 + 1j, 0)
-    assert abs(f.last_z_m[2] - k0) == 2 * 0.25 + 0.5 * 0.15
+    assert abs(f.last_z_m[2] - k0) == 2 * 0.25 + 0.5 * 0.35
     w.jobs.take_slots([0], f.last_z_m, 4.0)
     assert f.site[0] == k0
 
 
 def test_a_slot_counts_as_another_robots_goal_up_to_a_micrometre_from_it():
-    # service point (1.2, 1.5): slot 0 is (1.85, 1.5); robot 2 drives to a point exactly
+    # service point (1, 1.5): slot 0 is (1.85, 1.5); robot 2 drives to a point exactly
     # 1e-6 m from it (offsets in units of 2^-52 m, so every difference is exact)
-    w = orca_world([(3.0, 1.6), (1.2, 1.5), (4.0, 4.0)])
+    w = orca_world([(3.0, 1.6), (1.0, 1.5), (4.0, 4.0)])
     f = w.fleet
-    give(w, [0, 2], [(1.2, 1.5), (6.0, 4.0)])
+    give(w, [0, 2], [(1.0, 1.5), (6.0, 4.0)])
     f.state[1] = WORKING
-    k0 = slot(1.2 + 1.5j, 0)
+    k0 = slot(1.0 + 1.5j, 0)
     f.site[2] = complex(k0.real + 3979479812 * 2.0**-52, k0.imag + 2108589583 * 2.0**-52)
     assert abs(f.site[2] - k0) == 1e-6
     f.last_z_m[0] = 2.5 + 1.6j
     w.jobs.take_slots([0], f.last_z_m, 4.0)
-    assert f.site[0] == slot(1.2 + 1.5j, 1)  # slot 0 is robot 2's: the next nearest
+    assert f.site[0] == slot(1.0 + 1.5j, 1)  # slot 0 is robot 2's: the next nearest
     w.jobs.slotted[0] = False
-    f.site[0] = 1.2 + 1.5j
+    f.site[0] = 1.0 + 1.5j
     f.site[2] = k0 + 2e-6  # farther: another point, slot 0 is free
     w.jobs.take_slots([0], f.last_z_m, 4.0)
     assert f.site[0] == k0

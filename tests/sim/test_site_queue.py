@@ -1,0 +1,195 @@
+"""Site queues and going round (``sim.jobs.Jobs`` with collision avoidance on), driven
+directly as in ``test_jobs.py``: who is let in, who holds and is drawn as waiting, who drives
+out, and the path round a jam (``GridPlanner.path_around``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sim.jobs import AROUND_M, EXIT_M, EXIT_TIMEOUT_S, QUEUE_M
+from sim.recording import DRIVING, IDLE, WORKING
+from tests.sim.test_jobs import at, give, make_world, orca_world, waypoints
+from tests.sim.test_orca import circle, swap_world, time_to_all_arrive
+
+SITE = 10 + 5j
+RING = 2 * 0.25 + 0.35  # m, the 4 service slots round a service point
+
+
+def crowd(n_close: int, xs=None) -> tuple:
+    """A world whose robots 0..n-1 all come for SITE (given their tasks where they stand)."""
+    starts = [(10.0, 5.0)] + [(2.0 + 1.5 * k, 9.0) for k in range(n_close)]
+    w = orca_world(starts)
+    give(w, list(range(1, n_close + 1)), [(10.0, 5.0)] * n_close)
+    return w, w.fleet, w.jobs
+
+
+def test_every_place_is_a_service_point_or_a_free_slot_and_counted_once():
+    w = orca_world([(2.0, 2.0)], obstacles=[((10.5, 4.5), (11.5, 4.5), (11.5, 5.5), (10.5, 5.5))])
+    pts = w.jobs.place_points(SITE)
+    assert pts[0] == SITE
+    want = [SITE + RING * np.exp(2j * np.pi * k / 4) for k in (1, 2, 3)]  # slot 0 in the post
+    assert np.abs(pts[1:] - np.array(want)).max() < 1e-12
+    assert w.jobs.place_points(SITE) is pts  # cached
+
+
+def test_a_full_site_lets_in_as_many_as_it_has_places_and_the_rest_hold_waiting():
+    w, f, jobs = crowd(7)
+    t = at(w, 12.0)
+    f.last_z_m[1:8] = SITE + 2.0 * np.exp(1j * np.linspace(0.1, 3.0, 7))  # all within QUEUE_M
+    jobs.queue(t)
+    assert jobs.admitted[1:8].sum() == 5 and jobs.holding[1:8].sum() == 2
+    assert not (jobs.admitted & jobs.holding).any()
+    places = f.site[jobs.admitted]
+    assert len(set(places.tolist())) == 5  # every robot let in has a place of its own
+    assert np.abs(places - SITE).max() <= RING + 1e-12
+    held = jobs.holding.nonzero()[0]
+    for j in held:  # holds where it stands; stuck clock stopped: drawn as waiting
+        assert waypoints(w, j).tolist() == [f.last_z_m[j]] * 2
+        assert f.t_progress_s[j] == np.inf and f.progress_m[j] == -np.inf
+        assert jobs.hold_since_s[j] == t
+    assert jobs.queue_check_s == t  # robots near: look again next period
+
+
+def test_first_come_first_served_and_the_deadline_moves_on_by_the_hold():
+    w, f, jobs = crowd(7)
+    f.last_z_m[1:8] = SITE + 2.0 * np.exp(1j * np.linspace(0.1, 3.0, 7))
+    jobs.queue(at(w, 12.0))
+    held = jobs.holding.nonzero()[0].tolist()
+    deadline = f.deadline_s.copy()
+    jobs.hold_since_s[held[1]] = 11.0  # held[1] came first
+    one = jobs.admitted.nonzero()[0][0]
+    jobs.finish(int(one), 20.0, True)  # a place frees
+    jobs.queue(at(w, 20.0))
+    assert jobs.admitted[held[1]] and jobs.holding[held[0]]
+    assert f.deadline_s[held[1]] == deadline[held[1]] + (20.0 - 11.0)
+    assert f.deadline_s[held[0]] == deadline[held[0]]
+    assert np.isinf(jobs.hold_since_s[held[1]]) and f.t_progress_s[held[1]] == 20.0
+    assert waypoints(w, held[1])[-1] == f.site[held[1]]
+
+
+def test_a_robot_beside_the_crowd_holds_too_and_far_ones_are_checked_later():
+    w, f, jobs = crowd(7)
+    f.last_z_m[1:7] = SITE + 2.0 * np.exp(1j * np.linspace(0.1, 3.0, 6))
+    f.last_z_m[7] = SITE + 8.0
+    jobs.queue(at(w, 5.0))
+    hold = jobs.holding.nonzero()[0]
+    assert len(hold) == 1 and not jobs.admitted[7]
+    f.last_z_m[7] = f.last_z_m[hold[0]] + 0.99 * np.exp(1j * np.angle(f.last_z_m[hold[0]] - SITE))
+    assert abs(f.last_z_m[7] - SITE) >= QUEUE_M
+    jobs.queue(at(w, 6.0))
+    assert jobs.holding[7]  # joins the crowd of its site beyond QUEUE_M
+
+
+def test_the_next_queue_check_is_when_the_nearest_robot_could_reach_queue_distance():
+    w, f, jobs = crowd(1)
+    f.last_z_m[1] = SITE + 10.0
+    t = at(w, 3.0)
+    jobs.queue(t)
+    assert not jobs.admitted[1] and not jobs.holding[1]
+    v = 1.25 * w.follower.v_max_mps
+    assert jobs.queue_check_s == pytest.approx(t + (10.0 - QUEUE_M) / v, abs=0.2)
+
+
+def test_a_robot_that_finished_drives_out_past_the_queue_when_others_come():
+    w, f, jobs = crowd(7)
+    f.last_z_m[1:8] = SITE + 2.0 * np.exp(1j * np.linspace(0.1, 3.0, 7))
+    jobs.queue(at(w, 5.0))
+    j = int(jobs.admitted.nonzero()[0][0])
+    f.last_z_m[j] = SITE + 0.5j  # finishing just above the service point
+    jobs.finish(j, 9.0, True)
+    assert f.state[j] == IDLE and f.yielding[j] and f.yield_until_s[j] == 9.0 + EXIT_TIMEOUT_S
+    assert abs(waypoints(w, j)[-1] - (SITE + (QUEUE_M + EXIT_M) * 1j)) < 1e-9
+
+
+def test_nobody_coming_nobody_drives_out():
+    w, f, jobs = crowd(1)
+    f.last_z_m[1] = SITE
+    jobs.finish(1, 9.0, True)
+    assert not f.yielding[1] and w.follower.last[1] == -1
+
+
+def test_idle_robots_loitering_at_a_site_robots_are_let_in_to_drive_out():
+    w = orca_world([(10.0, 5.0), (2.0, 5.0), (10.0, 6.0), (16.0, 2.0)])
+    f, jobs = w.fleet, w.jobs
+    give(w, [1], [(10.0, 5.0)])
+    f.last_z_m[1] = SITE - 2.0
+    f.last_z_m[3] = 16 + 2j  # far: stays
+    jobs.queue(at(w, 4.0))
+    assert jobs.admitted[1]
+    assert f.yielding.tolist() == [True, False, True, False]  # 0 on the point, 2 beside it
+    assert abs(waypoints(w, 2)[-1] - (SITE + (QUEUE_M + EXIT_M) * 1j)) < 1e-9
+
+
+def test_holders_never_give_way_and_a_stuck_robot_goes_round_them():
+    starts = [(6.0, 5.0), (8.0, 5.0)]
+    w = orca_world(starts)
+    f, jobs = w.fleet, w.jobs
+    give(w, [0, 1], [(14.0, 5.0), (2.0, 5.0)])
+    jobs.holding[1] = True
+    f.last_z_m[:2] = [7.4 + 5j, 8 + 5j]
+    t = at(w, 30.0)
+    assert jobs.give_way(0, t) is False  # the only driving robot near holds: no deadlock
+    jobs.recover(0, t)
+    path = waypoints(w, 0)
+    assert f.recoveries[0] == 1 and len(path) > 2
+    seg_a, seg_b = path[:-1], path[1:]
+    # every segment of the new path keeps the grown robot (an octagon round its disc) clear
+    u = np.clip(((8 + 5j - seg_a) * (seg_b - seg_a).conj()).real / np.abs(seg_b - seg_a) ** 2, 0, 1)
+    gap = np.abs(seg_a + u * (seg_b - seg_a) - (8 + 5j))
+    assert gap[1:].min() >= 0.25 + 0.25 + 0.1 - 1e-9  # the first leaves from inside it
+
+
+def test_going_round_needs_a_robot_near_a_try_left_and_a_short_enough_path(monkeypatch):
+    w = orca_world([(6.0, 5.0), (6.0 + AROUND_M, 5.0)])
+    f, jobs = w.fleet, w.jobs
+    give(w, [0, 1], [(14.0, 5.0), (2.0, 5.0)])
+    f.last_z_m[:2] = [6 + 5j, 6 + AROUND_M + 5j]  # exactly AROUND_M apart: not near
+    assert jobs.go_round(0, 3.0) is False
+    f.last_z_m[1] = 8 + 5j
+    f.recoveries[0] = w.spatial.max_recoveries
+    assert jobs.go_round(0, 3.0) is False
+    f.recoveries[0] = 0
+    f.left_m[0] = 4.0
+    long = np.array([[6.0, 5.0], [6.0, 5.0 + 11.0], [6.0, 5.0]])  # 22 m = 3 x 4 + 10
+    monkeypatch.setattr(w.planner, "path_around", lambda *a: long)
+    assert jobs.go_round(0, 3.0) is True  # exactly the limit: taken
+    f.recoveries[0], jobs.around_s[0] = 0, -np.inf
+    long[1, 1] += 1e-6
+    assert jobs.go_round(0, 4.0) is False  # a hair longer: not taken
+    assert f.recoveries[0] == 0
+
+
+def test_no_path_round_a_robot_that_fills_the_only_lane():
+    lane = [((1.3, 4.5), (9.0, 4.5), (9.0, 9.0), (1.3, 9.0)), ((0.0, 4.3), (9.0, 4.3), (9.0, 4.5), (0.0, 4.5))]
+    w = orca_world([(0.65, 5.0), (0.65, 5.7)], obstacles=lane)
+    give(w, [0], [(0.65, 9.5)])
+    w.fleet.last_z_m[:2] = [0.65 + 5j, 0.65 + 5.7j]
+    assert w.jobs.go_round(0, 3.0) is False
+    assert w.fleet.recoveries[0] == 0 and waypoints(w, 0)[-1] == 0.65 + 9.5j
+
+
+def test_path_around_without_robots_is_the_plain_path():
+    w = make_world([(2.0, 2.0)], obstacles=[((8.0, 3.0), (12.0, 3.0), (12.0, 7.0), (8.0, 7.0))])
+    pl = w.planner
+    a, b = (2.0, 5.0), (18.0, 5.0)
+    assert np.array_equal(pl.path_around(a, b, np.zeros(0), 0.25), pl.path(a, b))
+
+
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_thirty_robots_sent_to_one_site_all_work_there_within_90_s_without_a_contact(control):
+    """The issue's hard case: 30 robots on an 8 m circle all sent to its centre with 2 s of
+    work each; the site's queue lets them in five at a time (measured 61-71 s)."""
+    n, centre = 30, (10.0, 10.0)
+    starts, _ = circle(n, 8.0, centre)
+    world = swap_world(starts, [centre] * n, (20.0, 20.0), control)
+    world.jobs.exec_time_s[:] = 2.0
+    worked = np.zeros(n, dtype=bool)
+    while world.time_s < 90.0 and not worked.all():
+        world.advance(0.1)
+        worked |= world.fleet.state == WORKING
+    assert worked.all(), f"{int((~worked).sum())} robots never worked within 90 s"
+    assert world.contacts.robot_hits == 0 and world.contacts.wall_hits == 0
+    assert world.jobs.failures == 0

@@ -28,6 +28,7 @@ from sim.drive_law import (
     KEEP_RIGHT_M,
     PROXIMITY_DECEL,
     REACT_PERIODS,
+    TURN_FIRST_RADPS,
     approach_cap_mps,
     goes_our_way,
     pair_share_m,
@@ -259,18 +260,31 @@ class DiffDriveController:
         return self.diag_
 
     def limit(
-        self, v_mps: np.ndarray, omega_radps: np.ndarray, v0: np.ndarray, q0: np.ndarray
+        self,
+        v_mps: np.ndarray,
+        omega_radps: np.ndarray,
+        v0: np.ndarray,
+        q0: np.ndarray,
+        turn_first: bool = False,
+        orca: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Apply the wheel-speed and wheel-acceleration limits to desired twists.
 
         Each wheel's rim speed v +- q (q = omega b / 2) may change by ``rim_step_mps`` per
         period. A robot that must slow down (|v| falls) takes its full deceleration first and
-        turns with what is left; otherwise each wheel goes as far toward its target as it may.
+        turns with what is left; with ``turn_first`` (the law under collision avoidance), one
+        turning faster than ``TURN_FIRST_RADPS`` whose turn must
+        slow (|q| falls or changes sign) slows the turn first and changes speed with what is
+        left (unless collision avoidance set its command: ORCA's guarantee needs its velocity) (else speeding up would keep the turn going and carry it past its heading, off
+        its path and into walls); otherwise each wheel goes as far toward its target as it may.
 
         Args:
             v_mps: (m,) desired forward speed.
             omega_radps: (m,) desired turn rate.
             v0, q0: (m,) v and q commanded in the last period, m/s.
+            turn_first: slow a fast turn first (above).
+            orca: indices of the robots whose command collision avoidance set (``sim.orca``):
+                no turn first for them, their wheels follow the velocity ORCA chose.
 
         Returns:
             (v, omega, q) actually commanded.
@@ -287,6 +301,19 @@ class DiffDriveController:
         dq -= q0
         right = np.minimum(np.maximum(dv + dq, -s), s)  # each wheel on its own
         left = np.minimum(np.maximum(dv - dq, -s), s)
+        if turn_first:
+            q_target = q1 / over
+            turn = np.abs(q0) > TURN_FIRST_RADPS * self.half_base_m
+            turn &= (np.abs(q_target) < np.abs(q0)) | (q_target * q0 < 0.0)
+            turn &= ~brake
+            if orca is not None:
+                turn[orca] = False
+            if np.count_nonzero(turn):  # a fast turn that must slow comes next
+                dq_t = np.minimum(np.maximum(dq, -s), s)
+                room = s - np.abs(dq_t)
+                dv_t = np.minimum(np.maximum(dv, -room), room)
+                np.copyto(right, dv_t + dq_t, where=turn)
+                np.copyto(left, dv_t - dq_t, where=turn)
         if np.count_nonzero(brake):  # slowing down comes first: the turn gets what is left
             np.minimum(np.maximum(dv, -s, out=dv), s, out=dv)
             room = s - np.abs(dv)

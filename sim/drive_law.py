@@ -32,6 +32,7 @@ REACT_PERIODS = 1.0  # a command holds for this many control periods before the 
 AHEAD_DEG = 70.0  # a robot within this angle of the direction of travel is in the way
 ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
 SPEED_BOUND = 1.25  # no robot moves faster than this times the top speed, even when pushed
+TURN_FIRST_RADPS = 1.0  # a turn faster than this that must slow takes the wheels first, rad/s
 COS_TURN = math.cos(TURN_IN_PLACE_RAD)
 COS_AHEAD = math.cos(math.radians(AHEAD_DEG))
 

@@ -498,52 +498,52 @@ class Jobs:
         self.clear_loiterers(driving & self.admitted & (gap < QUEUE_M), t)
 
     def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
-        """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them)."""
+        """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them), first
+        come first served per site."""
         f, z = self.fleet, self.fleet.last_z_m
-        inside = self.admitted | (f.state == WORKING)
         changed = False
-        for site in np.unique(self.service[rows]).tolist():
-            mine = rows[np.abs(self.service[rows] - site) < 1e-6]
-            mine = mine[np.lexsort((gap[mine], self.hold_since_s[mine]))]  # first come first
-            taken = int(np.count_nonzero(inside & (np.abs(self.service - site) < 1e-6)))
-            free = len(self.place_points(site)) - taken
-            for j in mine.tolist():
-                if free > 0:
-                    free -= 1
-                    changed |= self.let_in(j, t)
-                elif not self.holding[j]:
-                    self.holding[j], self.hold_since_s[j] = True, t
-                    here = np.array([[z[j].real, z[j].imag]] * 2)
-                    self.follower.set_path(j, here)
-                    f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
-                    changed = True
+        order = rows[np.lexsort((gap[rows], self.hold_since_s[rows]))]
+        for j in order.tolist():
+            place = self.free_place(j)
+            if place is not None:
+                changed |= self.let_in(j, place, t)
+            elif not self.holding[j]:
+                self.holding[j], self.hold_since_s[j] = True, t
+                here = np.array([[z[j].real, z[j].imag]] * 2)
+                self.follower.set_path(j, here)
+                f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
+                changed = True
         if changed:
             self.refresh()
 
-    def let_in(self, j: int, t: float) -> bool:
-        """Robot j may go to its site now: it is given the free place (service point first, else
-        the nearest free slot) that no robot let in or at work there keeps and no standing robot
-        takes; one that held has its deadline moved on by the time it held. True if its path
-        changed."""
+    def free_place(self, j: int) -> complex | None:
+        """The place robot j would be given at its site now: the service point if free, else
+        the free slot nearest to it; a place is taken when a robot let in to or at work at that
+        site keeps it or a robot that is not driving (at work, idle, on its way out) stands
+        within two radii and half ``SLOT_GAP_M`` of it. None if every place is taken."""
         f, r = self.fleet, self.controller.radius_m
         z, site = f.last_z_m, self.service[j]
-        self.admitted[j] = True
-        place = site
         cand = self.place_points(site)
         mine = (self.admitted | (f.state == WORKING)) & (np.abs(self.service - site) < 1e-6)
         mine[j] = False
         kept = f.site[mine]
-        standing = ((f.state != DRIVING) & ~f.yielding).nonzero()[0]
+        standing = (f.state != DRIVING).nonzero()[0]
         room = 2.0 * r + 0.5 * SLOT_GAP_M
         taken = np.zeros(len(cand), dtype=bool)
         if len(kept):
             taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < 1e-6
         if len(standing):
             taken |= np.abs(z[standing][:, None] - cand[None, :]).min(axis=0) < room
-        if not taken.all():
-            free = (~taken).nonzero()[0]
-            k = 0 if free[0] == 0 else int(free[np.abs(cand[free] - z[j]).argmin()])
-            place = cand[k]
+        if taken.all():
+            return None
+        free = (~taken).nonzero()[0]
+        return complex(cand[0] if free[0] == 0 else cand[free[np.abs(cand[free] - z[j]).argmin()]])
+
+    def let_in(self, j: int, place: complex, t: float) -> bool:
+        """Robot j goes to ``place`` (:meth:`free_place`) at its site now; one that held has its
+        deadline moved on by the time it held. True if its path changed."""
+        f, z, site = self.fleet, self.fleet.last_z_m, self.service[j]
+        self.admitted[j] = True
         held = self.holding[j]
         if held:
             self.holding[j] = False
@@ -590,9 +590,10 @@ class Jobs:
     def leave(self, j: int, t: float, site: complex | None = None) -> bool:
         """Robot j finished (or failed, or stands idle) near ``site`` (its task's by default)
         that other robots come to (within ``QUEUE_M + EXIT_M``): it drives out,
-        ``EXIT_M`` beyond ``QUEUE_M`` from the site, straight away from it where that is free
-        (else turned by up to 150 degrees either way), so the next in the queue gets its
-        place. True if it drives out; the caller calls :meth:`refresh`."""
+        ``EXIT_M`` beyond ``QUEUE_M`` from the site, to the free one of 11 end points (straight
+        away from the site, then turned by 30 to 150 degrees either way) whose straight line
+        passes farthest from the robots around it (clearances of two robot reaches and more
+        count alike; then the least turned), so the next in the queue gets its place. True if it drives out; the caller calls :meth:`refresh`."""
         f, z = self.fleet, self.fleet.last_z_m[j]
         site = self.service[j] if site is None else site
         if abs(z - site) >= QUEUE_M or self.broken[j]:
@@ -605,11 +606,23 @@ class Jobs:
         if abs(away) < 1e-3:
             away = -np.exp(1j * self.bodies[j].angle)
         away /= abs(away)
-        turns = np.radians([0, 30, -30, 60, -60, 90, -90, 120, -120, 150, -150])
+        turns = np.radians(np.arange(-150, 151, 30))
         ends = site + (QUEUE_M + EXIT_M) * away * np.exp(1j * turns)
         ok = self.planner.free(np.column_stack([ends.real, ends.imag]))
-        for end in ends[ok].tolist():
-            path = self.planner.path((z.real, z.imag), (end.real, end.imag))
+        if not ok.any():
+            return False
+        # the straight way out that passes farthest from the robots around (ties: least turned)
+        others = f.last_z_m[np.abs(f.last_z_m - z) < QUEUE_M + EXIT_M]
+        others = others[others != z]
+        clear = np.full(len(ends), np.inf)
+        if len(others):
+            seg = ends - z
+            u = ((others[None, :] - z) * seg.conj()[:, None]).real / np.abs(seg)[:, None] ** 2
+            near = z + np.clip(u, 0.0, 1.0) * seg[:, None]
+            clear = np.abs(others[None, :] - near).min(axis=1)
+        order = np.lexsort((np.abs(turns), -np.minimum(clear, 2.0 * self.reach_m)))
+        for k in order[ok[order]].tolist():
+            path = self.planner.path((z.real, z.imag), (ends[k].real, ends[k].imag))
             if len(path):
                 self.follower.set_path(j, path)
                 f.yielding[j], f.yield_until_s[j] = True, t + EXIT_TIMEOUT_S

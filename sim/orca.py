@@ -38,6 +38,7 @@ from sim.drive_law import COS_TURN, HEADING_GAIN
 TAU_S = 1.5  # time horizon toward other robots, s
 TAU_OBSTACLE_S = 0.6  # ... toward walls and obstacles, s
 MARGIN_M = 0.05  # added to the robot radius: a command is held one period while it turns, m
+WALL_GAP_M = 0.05  # ... and this toward walls and obstacles, the air the half-plane keeps, m
 MAX_NEIGHBOURS = 6  # the nearest robots within range that give a half-plane
 BACK_SHARE = 0.3  # share of the top speed a robot may reverse at to honour its half-planes
 RIGHT_BIAS_DEG = 30.0  # a robot with a binding half-plane prefers this much to the right
@@ -247,7 +248,7 @@ def avoid(
         return None
     normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
     pref = pref * KEEP_RIGHT
-    on, oc = obstacle_plane(to_obstacle(zi[bind]), r_eff, 1.0 / TAU_OBSTACLE_S)
+    on, oc = obstacle_plane(to_obstacle(zi[bind]), r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
     normal = np.concatenate([normal, on[:, None]], axis=1)
     offset = np.concatenate([offset, oc[:, None]], axis=1)
     u = solve(normal, offset, pref, v_max)

@@ -52,8 +52,9 @@ class ArrayControl:
         f.last_z_m[:] = z
         f.last_th_rad[:] = th
         v, w, rows = self._steer(z, hc, t)  # rows: robots beyond the free width of their path
+        orca = None  # robots whose command ORCA set: the wheels follow it as it is
         if p.avoid and sch.n_steer:
-            self._avoid(z, rob["vel"], h, v, w, t)
+            orca = self._avoid(z, rob["vel"], h, v, w, t)
         if t >= sch.prox_check_s:
             self._near(z, th, h, hc, v, w, t)
         else:
@@ -67,7 +68,7 @@ class ArrayControl:
             rows = back if rows is None else np.union1d(rows, back)
         if rows is not None and len(rows):
             self.obstacle_caps(z, hc, v, rows)
-        v, w, f.q_cmd_mps = c.limit(v, w, f.v_cmd_mps, f.q_cmd_mps)
+        v, w, f.q_cmd_mps = c.limit(v, w, f.v_cmd_mps, f.q_cmd_mps, p.avoid, orca)
         f.v_cmd_mps = v
         motors.write(z, th, h, v, w)
         calm = not (sch.n_steer or sch.n_backoff)
@@ -134,12 +135,15 @@ class ArrayControl:
         jobs.end_due(t)
         return v, w, off_path
 
-    def _avoid(self, z, vel, h, v, w, t: float) -> None:
-        """ORCA for the robots that steer (``steer_clear``; writes ``v``, ``w`` in place)."""
+    def _avoid(self, z, vel, h, v, w, t: float):
+        """ORCA for the robots that steer (``steer_clear``; writes ``v``, ``w`` in place);
+        returns the robots whose command it set, or None."""
         out = steer_clear(self.parts, z, vel, h, self.pref_, v, t)
-        if out is not None:
-            sel, v_new, w_new = out
-            v[sel], w[sel] = v_new, w_new
+        if out is None:
+            return None
+        sel, v_new, w_new = out
+        v[sel], w[sel] = v_new, w_new
+        return sel
 
     def _arrive(self, z: np.ndarray, go: np.ndarray, v: np.ndarray, w: np.ndarray, t: float):
         """Robots at their site (or beside robots standing there) start work; schedule the next

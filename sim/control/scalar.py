@@ -31,6 +31,7 @@ from sim.drive_law import (
     HEADING_GAIN,
     KEEP_RIGHT_GAIN,
     SPEED_BOUND,
+    TURN_FIRST_RADPS,
     approach_cap_mps,
     control_body,
     goes_our_way,
@@ -153,9 +154,11 @@ class ScalarControl:
             v[j], w[j] = f.backoff_cmd[j].tolist()
         jobs.end_due(t)
         # ---- other robots: ORCA (sim.orca), proximity caps (DiffDriveController.proximity) ----
+        orca = ()  # robots whose command ORCA set: the wheels follow it as it is
         if self.parts.avoid and steered:  # (p was reused for a point above)
             out = steer_clear(self.parts, zn, rob["vel"], hn, np.array(pref), np.array(v), t)
             if out is not None:
+                orca = set(out[0].tolist())
                 for j, vj, wj in zip(*(a.tolist() for a in out), strict=True):
                     v[j], w[j] = vj, wj
         state = sch.state_list  # arrivals and ends of work may have changed it
@@ -175,6 +178,7 @@ class ScalarControl:
             self.obstacle_caps(zs, hs, v, off + backing)
         # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----
         s, hb, top = c.rim_step_mps, c.half_base_m, c.rim_max_mps
+        turn_q = TURN_FIRST_RADPS * hb if self.parts.avoid else np.inf  # slow a fast turn first
         q0s = f.q_cmd_mps.tolist()
         write = motors.write_one
         moving = changed = False
@@ -191,6 +195,12 @@ class ScalarControl:
                 dv = s if dv > s else (-s if dv < -s else dv)
                 room = s - abs(dv)
                 dq = room if dq > room else (-room if dq < -room else dq)
+                right, left = dv + dq, dv - dq
+            elif abs(q0) > turn_q and (abs(q1) < abs(q0) or q1 * q0 < 0.0) and j not in orca:
+                # a fast turn that must slow comes next: speed gets what is left
+                dq = s if dq > s else (-s if dq < -s else dq)
+                room = s - abs(dq)
+                dv = room if dv > room else (-room if dv < -room else dv)
                 right, left = dv + dq, dv - dq
             else:
                 right, left = dv + dq, dv - dq

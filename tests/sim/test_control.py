@@ -29,12 +29,12 @@ from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
 from sim.tasks import Batch
 
 
-def crowd() -> Scenario:
+def crowd(avoidance: str = "none") -> Scenario:
     """A head-on pair passing an obstacle between standing robots, and a crossing robot."""
     starts = [(4.5, 5.0), (19.0, 5.0), (9.0, 6.0), (9.0, 3.3), (6.0, 1.5), (13.0, 8.5)]
     sites = [(18.0, 5.0), (2.0, 5.0), (9.0, 6.0), (9.0, 3.3), (16.0, 8.0), (13.0, 8.5)]
     box = (((11.5, 5.6), (13.0, 5.6), (13.0, 7.2), (11.5, 7.2)),)
-    sp = SpatialSpec(20.0, 10.0, box, (tuple(sites),), DriveSpec())
+    sp = SpatialSpec(20.0, 10.0, box, (tuple(sites),), DriveSpec(), avoidance=avoidance)
     robots = tuple(RobotSpec(f"R{j + 1}", (0,), xy) for j, xy in enumerate(starts))
     return Scenario("crowd", ("A",), robots, ((1.0,),) * len(robots), (2.0,), spatial=sp)
 
@@ -73,7 +73,11 @@ def one_period(world: PymunkWorld, kind) -> tuple[FleetState, Jobs]:
         bodies=world.motors.bodies,
         rng=copy.deepcopy(world.jobs.rng),
         keep_lists=True,
+        clear_sites=world.jobs.clear_sites,
     )
+    for name, value in world.jobs.state_arrays().items():  # site queues and slots too
+        setattr(jobs, name, copy.deepcopy(value) if np.ndim(value) else value.item())
+    jobs.queue_check_s, jobs.around_s = world.jobs.queue_check_s, world.jobs.around_s.copy()
     motors = Probe(world.motors)
     parts = ControlParts(
         fleet,
@@ -84,15 +88,18 @@ def one_period(world: PymunkWorld, kind) -> tuple[FleetState, Jobs]:
         world.controller,
         world.spatial.arrive_tol_m,
         world.reach_m_,
+        world.jobs.clear_sites,
     )
     kind(parts).period(world.time_s)
     return fleet, jobs
 
 
-def test_both_controls_command_the_same_wheels_from_the_same_state():
+@pytest.mark.parametrize("avoidance", ["none", "orca"])
+def test_both_controls_command_the_same_wheels_from_the_same_state(avoidance):
     """Period after period of a crowded run, both implementations get a copy of the same state
-    and must command the same wheels, see the same robot in the way and start the same work."""
-    sc = crowd()
+    and must command the same wheels, see the same robot in the way and start the same work;
+    with ORCA too (its commands, the turn-first wheel limit, site queues)."""
+    sc = crowd(avoidance)
     world = PymunkWorld(sc, control="scalar")  # exact free widths and the lists: both can run
     k = [0, 1, 4]
     sites = np.array(sc.spatial.sites[0], dtype=float)[k]
@@ -111,7 +118,8 @@ def test_both_controls_command_the_same_wheels_from_the_same_state():
         nearest = min(nearest, float(a.near_m.min()))
         done += world.advance(0.1)
     assert blocked > 20  # robots met: the proximity caps were at work ...
-    assert nearest < world.controller.keep_right_m  # ... and keep-right
+    if avoidance == "none":
+        assert nearest < world.controller.keep_right_m  # ... and keep-right
     assert sorted(c.task_id for c in done if c.ok) == [0, 1, 2]  # arrivals and ends of work
 
 
@@ -166,3 +174,23 @@ def test_control_body_sits_at_the_centre_of_the_arc():
     )
     np.testing.assert_allclose(arr_centre, [z + 2.0 * 1j * h, z], rtol=0, atol=1e-12)
     np.testing.assert_allclose(arr_vel, [0.0, v * h], rtol=0, atol=1e-12)
+
+
+def test_under_avoidance_a_fast_turn_that_must_slow_takes_the_wheels_first():
+    """DiffDriveController.limit with ``turn_first``: a robot turning faster than
+    TURN_FIRST_RADPS that is told to stop turning while speeding up slows its turn by the full
+    rim step and keeps its speed; a slower turn, a turn that grows, a robot ORCA steers, or the
+    law without avoidance share the step between the wheels as before."""
+    c = PymunkWorld(crowd()).controller
+    s, hb = c.rim_step_mps, c.half_base_m
+    q_fast, q_slow = 2.5 * hb, 0.99 * law.TURN_FIRST_RADPS * hb
+    v0 = np.array([0.5, 0.5, 0.5, 0.5])
+    q0 = np.array([q_fast, q_slow, q_fast, q_fast])
+    want_v = np.full(4, 1.0)
+    want_w = np.array([0.0, 0.0, 3.0, 0.0])  # robot 2's turn grows
+    v, w, q = c.limit(want_v, want_w, v0, q0, True, np.array([3]))
+    assert v[0] == 0.5 and q[0] == pytest.approx(q_fast - s, abs=1e-12)
+    old_v, old_w, old_q = c.limit(want_v, want_w, v0, q0)
+    assert old_v[0] > 0.5 and old_q[0] > q_fast - s  # without: speed first, turn lingers
+    np.testing.assert_array_equal(v[1:], old_v[1:])
+    np.testing.assert_array_equal(q[1:], old_q[1:])

@@ -19,8 +19,9 @@ RING = 2 * 0.25 + 0.35  # m, the 4 service slots round a service point
 
 
 def crowd(n_close: int, xs=None) -> tuple:
-    """A world whose robots 0..n-1 all come for SITE (given their tasks where they stand)."""
-    starts = [(10.0, 5.0)] + [(2.0 + 1.5 * k, 9.0) for k in range(n_close)]
+    """A world whose robots 1..n all come for SITE (given their tasks where they stand); robot
+    0 stands idle far off."""
+    starts = [(18.0, 1.0)] + [(2.0 + 1.5 * k, 9.0) for k in range(n_close)]
     w = orca_world(starts)
     give(w, list(range(1, n_close + 1)), [(10.0, 5.0)] * n_close)
     return w, w.fleet, w.jobs
@@ -93,15 +94,35 @@ def test_the_next_queue_check_is_when_the_nearest_robot_could_reach_queue_distan
     assert jobs.queue_check_s == pytest.approx(t + (10.0 - QUEUE_M) / v, abs=0.2)
 
 
-def test_a_robot_that_finished_drives_out_past_the_queue_when_others_come():
+def segment_clearance(a: complex, b: complex, pts: np.ndarray) -> float:
+    u = np.clip(((pts - a) * np.conj(b - a)).real / abs(b - a) ** 2, 0.0, 1.0)
+    return float(np.abs(pts - (a + u * (b - a))).min())
+
+
+def test_a_robot_that_finished_drives_out_through_the_widest_gap_in_the_queue():
     w, f, jobs = crowd(7)
-    f.last_z_m[1:8] = SITE + 2.0 * np.exp(1j * np.linspace(0.1, 3.0, 7))
+    f.last_z_m[1:8] = SITE + 2.0 * np.exp(1j * np.linspace(0.1, 3.0, 7))  # the upper half
     jobs.queue(at(w, 5.0))
     j = int(jobs.admitted.nonzero()[0][0])
     f.last_z_m[j] = SITE + 0.5j  # finishing just above the service point
     jobs.finish(j, 9.0, True)
     assert f.state[j] == IDLE and f.yielding[j] and f.yield_until_s[j] == 9.0 + EXIT_TIMEOUT_S
-    assert abs(waypoints(w, j)[-1] - (SITE + (QUEUE_M + EXIT_M) * 1j)) < 1e-9
+    end = waypoints(w, j)[-1]
+    assert abs(abs(end - SITE) - (QUEUE_M + EXIT_M)) < 1e-9
+    others = np.delete(f.last_z_m, j)
+    others = others[np.abs(others - f.last_z_m[j]) < QUEUE_M + EXIT_M]
+    assert segment_clearance(f.last_z_m[j], end, others) >= 2 * w.reach_m_  # not through them
+    assert end.imag < SITE.imag  # the crowd stands above: it leaves below
+
+
+def test_with_nobody_in_the_way_a_robot_drives_straight_out():
+    w, f, jobs = crowd(1)
+    f.last_z_m[1] = SITE - 3.0  # comes from the left
+    jobs.admitted[1] = True
+    f.last_z_m[0] = SITE + 0.5j
+    jobs.service[0] = SITE
+    assert jobs.leave(0, 9.0) is True
+    assert abs(waypoints(w, 0)[-1] - (SITE + (QUEUE_M + EXIT_M) * 1j)) < 1e-9
 
 
 def test_nobody_coming_nobody_drives_out():

@@ -272,11 +272,12 @@ class DiffDriveController:
 
         Each wheel's rim speed v +- q (q = omega b / 2) may change by ``rim_step_mps`` per
         period. A robot that must slow down (|v| falls) takes its full deceleration first and
-        turns with what is left; with ``turn_first`` (the law under collision avoidance), one
-        turning faster than ``TURN_FIRST_RADPS`` whose turn must
-        slow (|q| falls or changes sign) slows the turn first and changes speed with what is
-        left (unless collision avoidance set its command: ORCA's guarantee needs its velocity) (else speeding up would keep the turn going and carry it past its heading, off
-        its path and into walls); otherwise each wheel goes as far toward its target as it may.
+        turns with what is left. With ``turn_first`` (the law under collision avoidance), one
+        turning faster than ``TURN_FIRST_RADPS`` whose turn must slow (|q| falls or changes
+        sign) slows the turn first and changes speed with what is left, unless ORCA set its
+        command (its guarantee needs that velocity); else speeding up would keep the turn going
+        and carry the robot past its heading, off its path and into walls. Otherwise each wheel
+        goes as far toward its target as it may.
 
         Args:
             v_mps: (m,) desired forward speed.

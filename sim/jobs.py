@@ -383,7 +383,9 @@ class Jobs:
             f.t_progress_s[j] = t
             return True
         site = (f.site[j].real, f.site[j].imag)
-        path = self.planner.path_around((z[j].real, z[j].imag), site, z[close], self.controller.radius_m)
+        path = self.planner.path_around(
+            (z[j].real, z[j].imag), site, z[close], self.controller.radius_m
+        )
         if not len(path):
             return False
         length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
@@ -593,7 +595,8 @@ class Jobs:
         ``EXIT_M`` beyond ``QUEUE_M`` from the site, to the free one of 11 end points (straight
         away from the site, then turned by 30 to 150 degrees either way) whose straight line
         passes farthest from the robots around it (clearances of two robot reaches and more
-        count alike; then the least turned), so the next in the queue gets its place. True if it drives out; the caller calls :meth:`refresh`."""
+        count alike; then the least turned), so the next in the queue gets its place. True if
+        it drives out; the caller calls :meth:`refresh`."""
         f, z = self.fleet, self.fleet.last_z_m[j]
         site = self.service[j] if site is None else site
         if abs(z - site) >= QUEUE_M or self.broken[j]:

@@ -58,6 +58,7 @@ from sim.jobs import Jobs
 from sim.motors import Motors
 from sim.paths import PathFollower
 from sim.planning import GridPlanner
+from sim.recording import shown_states
 from sim.scenario import Scenario
 from sim.tasks import Batch
 from sim.world import Abandon, Completion, WorldState
@@ -428,8 +429,10 @@ class PymunkWorld:
             if self.recorder is not None:
                 z = f.last_z_m
                 xy = np.column_stack([z.real, z.imag])
-                self.recorder.poses(t, xy, f.last_th_rad, f.state)
+                shown = shown_states(f.state, f.t_progress_s, t)
+                self.recorder.poses(t, xy, f.last_th_rad, shown)
             return
         self.control.period(t)
         if self.recorder is not None:
-            self.recorder.poses(t, self.motors.flat[:, :2], f.last_th_rad, f.state)
+            shown = shown_states(f.state, f.t_progress_s, t)
+            self.recorder.poses(t, self.motors.flat[:, :2], f.last_th_rad, shown)

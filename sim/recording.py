@@ -13,6 +13,14 @@ from pathlib import Path
 import numpy as np
 
 IDLE, DRIVING, WORKING = 0, 1, 2
+WAITING = 3  # recorded only (never in the fleet state): driving, but decided to wait (holding
+# in a site's queue, for a robot at work to finish): its stuck clock is stopped
+
+
+def shown_states(state: np.ndarray, t_progress_s: np.ndarray, t_s: float) -> np.ndarray:
+    """The states to record: ``WAITING`` for a driving robot whose stuck clock is set after
+    ``t_s`` (progress sets it to now; only a decision to wait sets it later), else ``state``."""
+    return np.where((state == DRIVING) & (t_progress_s > t_s), WAITING, state)
 
 
 @dataclass(frozen=True)
@@ -22,7 +30,7 @@ class Trajectory:
     times_s: np.ndarray  # (T,)
     positions: np.ndarray  # (T, m, 2) m
     headings: np.ndarray  # (T, m) rad
-    robot_state: np.ndarray  # (T, m) int8: IDLE, DRIVING, WORKING
+    robot_state: np.ndarray  # (T, m) int8: IDLE, DRIVING, WORKING, WAITING
     task_id: np.ndarray  # (N,)
     task_type: np.ndarray  # (N,)
     task_high: np.ndarray  # (N,) bool

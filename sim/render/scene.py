@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim.recording import DRIVING, IDLE, WORKING, Trajectory
+from sim.recording import DRIVING, IDLE, WAITING, WORKING, Trajectory
 from sim.render.style import (
     ASSIGN_COLOUR,
     BOTTOM_PX,
@@ -40,6 +40,7 @@ from sim.render.style import (
     TEXT_COLOUR,
     TRAIL_ALPHA,
     TRAIL_COLOUR,
+    WAIT_RING,
     add_legend,
     default_style,
     layout_options,
@@ -94,7 +95,7 @@ class FrameScene:
             FigureCanvasAgg(figure)
         self.fig, self.canvas = figure, figure.canvas
         self.type_rgba = type_colours(len(traj.type_names))
-        self._state_rgba = to_rgba_array([STATE_FILL[s] for s in (IDLE, DRIVING, WORKING)])
+        self._state_rgba = to_rgba_array([STATE_FILL[s] for s in (IDLE, DRIVING, WORKING, WAITING)])
         types = np.asarray(traj.task_type, dtype=int)
         self._task_rgba = self.type_rgba[types] if types.size else np.zeros((0, 4))
         self._task_faded = self._task_rgba.copy()
@@ -226,6 +227,17 @@ class FrameScene:
             zorder=5,
             **anim,
         )
+        self.rings = ax.scatter(  # round waiting robots
+            np.zeros(0),
+            np.zeros(0),
+            s=(WAIT_RING * robot_d_pt) ** 2,
+            marker="o",
+            facecolors="none",
+            edgecolors="black",
+            linewidths=0.9 * s,
+            zorder=5,
+            **anim,
+        )
         (self.ticks,) = ax.plot(
             [], [], color="black", linewidth=1.8 * s, solid_capstyle="butt", zorder=6, **anim
         )
@@ -238,6 +250,7 @@ class FrameScene:
             self.open_high,
             self.open_low,
             self.robots,
+            self.rings,
             self.ticks,
         ]
         self.labels, self.title, self.text = [], None, None
@@ -300,7 +313,8 @@ class FrameScene:
         xy, heading, state = robot_poses_at(traj, t_s)
         self._xy = xy
         self.robots.set_offsets(xy)
-        self.robots.set_facecolors(self._state_rgba[np.clip(state, 0, 2)])
+        self.robots.set_facecolors(self._state_rgba[np.clip(state, 0, WAITING)])
+        self.rings.set_offsets(xy[state == WAITING].reshape(-1, 2))
         u = np.column_stack([np.cos(heading), np.sin(heading)])
         self.ticks.set_data(*nan_joined(np.stack([xy + r * u, xy + 1.9 * r * u], axis=1)))
         for k, label in enumerate(self.labels):

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim.recording import DRIVING, IDLE, WORKING
+from sim.recording import DRIVING, IDLE, WAITING, WORKING
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -20,9 +20,11 @@ if TYPE_CHECKING:
 DPI = 100
 ROBOT_RADIUS_M = 0.25  # DriveSpec default; the trajectory does not record body sizes
 MIN_ROBOT_RADIUS_PX = 6.5  # large arenas: robots stay visible
-STATE_NAMES = {IDLE: "idle", DRIVING: "driving", WORKING: "working"}
-# Robots are drawn in grey levels so that hue is left to task types alone.
-STATE_FILL = {IDLE: "#ffffff", DRIVING: "#a6a6a6", WORKING: "#262626"}
+STATE_NAMES = {IDLE: "idle", DRIVING: "driving", WAITING: "waiting (ringed)", WORKING: "working"}
+# Robots are drawn in grey levels so that hue is left to task types alone; a waiting robot (it
+# holds in a site's queue or waits for a robot at work) is light grey and ringed.
+STATE_FILL = {IDLE: "#ffffff", DRIVING: "#a6a6a6", WAITING: "#d9d9d9", WORKING: "#262626"}
+WAIT_RING = 1.55  # the ring round a waiting robot, in robot radii
 TRAIL_COLOUR, TRAIL_ALPHA = "#4f7cac", 0.8
 ASSIGN_COLOUR = "#222222"
 TEXT_COLOUR = "#222222"
@@ -37,7 +39,7 @@ LEFT_PX, BOTTOM_PX, RIGHT_PX, GAP_PX = 26, 18, 6, 8
 TOP_PX = 30  # the title line
 LEGEND_W_PX = 134  # legend column on the right
 LEGEND_ROW_H_PX = 104  # legend row underneath
-LEGEND_COL_H_PX = 350  # height the legend column needs
+LEGEND_COL_H_PX = 370  # height the legend column needs
 
 
 def type_colours(n: int) -> np.ndarray:
@@ -82,6 +84,9 @@ def legend_entries(
     trail = Line2D([], [], color=TRAIL_COLOUR, linewidth=1.6 * scale, alpha=TRAIL_ALPHA)
     assign = Line2D([], [], color=ASSIGN_COLOUR, linestyle=DASHED, linewidth=1.2 * scale)
     robots = [(marker("o", STATE_FILL[k], 12, lw=1.2), STATE_NAMES[k]) for k in STATE_NAMES]
+    k = list(STATE_NAMES).index(WAITING)
+    ring = marker("o", "none", 12 * WAIT_RING, lw=0.9)
+    robots[k] = ((ring, robots[k][0]), STATE_NAMES[WAITING])
     robots.append((trail, f"trail, last {trail_s:g} s"))
     tasks = [
         (marker("*", grey, HIGH_PX), "high priority"),

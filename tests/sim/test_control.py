@@ -188,9 +188,9 @@ def test_under_avoidance_a_fast_turn_that_must_slow_takes_the_wheels_first():
     q0 = np.array([q_fast, q_slow, q_fast, q_fast])
     want_v = np.full(4, 1.0)
     want_w = np.array([0.0, 0.0, 3.0, 0.0])  # robot 2's turn grows
-    v, w, q = c.limit(want_v, want_w, v0, q0, True, np.array([3]))
+    v, _, q = c.limit(want_v, want_w, v0, q0, True, np.array([3]))
     assert v[0] == 0.5 and q[0] == pytest.approx(q_fast - s, abs=1e-12)
-    old_v, old_w, old_q = c.limit(want_v, want_w, v0, q0)
+    old_v, _, old_q = c.limit(want_v, want_w, v0, q0)
     assert old_v[0] > 0.5 and old_q[0] > q_fast - s  # without: speed first, turn lingers
     np.testing.assert_array_equal(v[1:], old_v[1:])
     np.testing.assert_array_equal(q[1:], old_q[1:])

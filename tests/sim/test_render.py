@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import os
 import subprocess
@@ -15,10 +16,10 @@ from matplotlib.colors import to_rgb
 from matplotlib.path import Path as MplPath
 from PIL import Image
 
-from sim.recording import DRIVING, IDLE, WORKING, Trajectory
+from sim.recording import DRIVING, IDLE, WAITING, WORKING, Trajectory, shown_states
 from sim.render import frame_times, render_frame, render_frames, render_gif, render_mp4
 from sim.render.scene import FrameScene
-from sim.render.style import STATE_FILL, type_colours
+from sim.render.style import STATE_FILL, WAIT_RING, type_colours
 from sim.render.timeline import robot_poses_at, task_counts_at, task_view_at
 from sim.synthetic import synthetic_trajectory
 
@@ -463,3 +464,27 @@ def test_labels_never_overlap_and_are_dropped_when_no_corner_is_free():
     boxes = [(x, y - 10, x + 20, y) for x, y in anchors[placed]]
     for a, b in itertools.combinations(boxes, 2):
         assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+
+
+def test_a_waiting_robot_is_light_grey_and_ringed(hand, scene):
+    """Robot 1 (idle at (15, 5)) recorded WAITING from 8 s: its fill is the waiting grey and a
+    dark ring stands WAIT_RING radii from its centre (white there before)."""
+    waiting = dataclasses.replace(hand, robot_state=hand.robot_state.copy())
+    waiting.robot_state[hand.times_s >= 8.0, 1] = WAITING
+    centre = scene.pixel_xy(np.array([15.0, 5.0]))[0]
+    ring = scene.pixel_xy(np.array([15.0, 5.0 - WAIT_RING * scene.robot_r_m]))[0]  # below it
+    before = render_frame(waiting, 7.0, size=SIZE)
+    after = render_frame(waiting, 9.0, size=SIZE)
+    assert np.abs(pixel(before, centre) - rgb255(STATE_FILL[IDLE])).max() <= 3
+    assert np.abs(pixel(after, centre) - rgb255(STATE_FILL[WAITING])).max() <= 3
+    dark = [after[int(ring[1]) + d, int(ring[0])].astype(int).sum() for d in (-1, 0, 1)]
+    light = [before[int(ring[1]) + d, int(ring[0])].astype(int).sum() for d in (-1, 0, 1)]
+    assert min(dark) < 400 and min(light) > 600
+
+
+def test_recorded_states_show_a_driving_robot_that_decided_to_wait_as_waiting():
+    state = np.array([DRIVING, DRIVING, WORKING, IDLE, DRIVING], dtype=np.int8)
+    t_progress = np.array([12.0, 10.0, 30.0, np.inf, np.inf])
+    got = shown_states(state, t_progress, 10.0)
+    assert got.tolist() == [WAITING, DRIVING, WORKING, IDLE, WAITING]
+    assert got.dtype == np.int8

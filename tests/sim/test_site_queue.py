@@ -4,15 +4,13 @@ out, and the path round a jam (``GridPlanner.path_around``)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
 from sim.jobs import AROUND_M, EXIT_M, EXIT_TIMEOUT_S, QUEUE_M
-from sim.recording import DRIVING, IDLE, WORKING
+from sim.recording import DRIVING, IDLE, WAITING, WORKING, shown_states
 from tests.sim.test_jobs import at, give, make_world, orca_world, waypoints
-from tests.sim.test_orca import circle, swap_world, time_to_all_arrive
+from tests.sim.test_orca import circle, swap_world
 
 SITE = 10 + 5j
 RING = 2 * 0.25 + 0.35  # m, the 4 service slots round a service point
@@ -52,6 +50,8 @@ def test_a_full_site_lets_in_as_many_as_it_has_places_and_the_rest_hold_waiting(
         assert f.t_progress_s[j] == np.inf and f.progress_m[j] == -np.inf
         assert jobs.hold_since_s[j] == t
     assert jobs.queue_check_s == t  # robots near: look again next period
+    shown = shown_states(f.state, f.t_progress_s, t)
+    assert (shown[held] == WAITING).all() and (shown[jobs.admitted] == DRIVING).all()
 
 
 def test_first_come_first_served_and_the_deadline_moves_on_by_the_hold():
@@ -184,7 +184,10 @@ def test_going_round_needs_a_robot_near_a_try_left_and_a_short_enough_path(monke
 
 
 def test_no_path_round_a_robot_that_fills_the_only_lane():
-    lane = [((1.3, 4.5), (9.0, 4.5), (9.0, 9.0), (1.3, 9.0)), ((0.0, 4.3), (9.0, 4.3), (9.0, 4.5), (0.0, 4.5))]
+    lane = [
+        ((1.3, 4.5), (9.0, 4.5), (9.0, 9.0), (1.3, 9.0)),
+        ((0.0, 4.3), (9.0, 4.3), (9.0, 4.5), (0.0, 4.5)),
+    ]
     w = orca_world([(0.65, 5.0), (0.65, 5.7)], obstacles=lane)
     give(w, [0], [(0.65, 9.5)])
     w.fleet.last_z_m[:2] = [0.65 + 5j, 0.65 + 5.7j]

@@ -207,6 +207,8 @@ def cmd_render(args) -> int:
         raise UserError(f"--fps {args.fps}: a GIF plays at most 50 frames per second")
     sets = min(args.sets, sc.stream.n_sets)
     overrides = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
+    if args.avoidance is not None:
+        overrides += (("spatial.avoidance", args.avoidance),)
     for path in (args.gif, args.mp4, args.trajectory):
         if path is not None and not path.parent.is_dir():
             raise UserError(f"{path.parent}: output folder does not exist")
@@ -245,6 +247,69 @@ def cmd_render(args) -> int:
     print(
         f"wrote {args.gif} ({args.frames} frames of {size[0]}x{size[1]} px, "
         f"{args.t_from:.0f}-{t_to:.0f} s of {end:.0f} s)"
+    )
+    return 0
+
+
+def cmd_hardcase(args) -> int:
+    import json
+
+    from scenarios.experiments.protocol import UserError
+    from scenarios.loader import did_you_mean
+    from sim.hardcases import CASES, run_case
+    from sim.render import render_gif
+    from sim.render.style import fitted_height
+
+    if args.case not in CASES:
+        hint = did_you_mean(args.case, CASES)
+        raise UserError(f"hard case {args.case!r} unknown{hint}; choose from {', '.join(CASES)}")
+    if args.gif is not None and not args.gif.parent.is_dir():
+        raise UserError(f"{args.gif.parent}: output folder does not exist")
+    if args.fps > 50:
+        raise UserError(f"--fps {args.fps}: a GIF plays at most 50 frames per second")
+    case = CASES[args.case]
+    limit = case.limit_s if args.limit_s is None else args.limit_s
+    from scenarios.experiments.progress import progress_bar
+
+    ticks = max(1, round(limit / 0.1))
+    with progress_bar(ticks, f"hardcase: {args.case}", "tick", not args.no_progress) as bar:
+        try:
+            out = run_case(
+                args.case,
+                args.robots,
+                args.control,
+                args.avoidance,
+                args.limit_s,
+                recorder=args.gif is not None,
+                on_tick=lambda _w: bar.update(),
+            )
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    traj = out.pop("trajectory", None)
+    if traj is not None:
+        width, height = args.size
+        size = (width, height if height is not None else fitted_height(width, traj.arena_wh))
+        with progress_bar(args.frames, "hardcase: draw", "frame", not args.no_progress) as bar:
+            render_gif(
+                traj, args.gif, frames=args.frames, fps=args.fps, size=size, trail_s=5.0,
+                on_frame=bar.update,
+            )  # fmt: skip
+        out["gif"] = str(args.gif)
+    if args.json:
+        print(json.dumps({k: (None if v == float("inf") else v) for k, v in out.items()}))
+        return 0
+    t = out["time_s"]
+    when = (
+        f"all arrived in {t:.1f} s"
+        if t != float("inf")
+        else f"not all arrived within {limit:g} s: {out['still_driving']} still driving"
+    )
+    print(
+        f"{args.case}, {out['robots']} robots, avoidance {out['avoidance']}, "
+        f"{out['control']} control: {when}; robot-robot contacts {out['robot_touch']} touch "
+        f"{out['robot_impact']} impact, robot-wall {out['wall_touch']} touch "
+        f"{out['wall_impact']} impact; closest centres {out['closest_m']:.2f} m; "
+        f"failed tasks {out['failed']}" + (f"; wrote {args.gif}" if traj is not None else "")
     )
     return 0
 
@@ -341,6 +406,7 @@ COMMANDS = {
     "compare": cmd_compare,
     "render": cmd_render,
     "bench": cmd_bench,
+    "hardcase": cmd_hardcase,
     "sweep": cmd_sweep,
     "study": cmd_study,
     "soak": cmd_soak,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 EXIT_USAGE = 2
@@ -88,6 +89,18 @@ def int_at_least(lowest: int):
 
 
 _positive_int = int_at_least(1)
+
+
+def _positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 with a one-line error otherwise."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
 
 FAULT_WORDS = {
     "mttf": "faults.mttf_s",
@@ -286,6 +299,13 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--cost", choices=COSTS, default="distance", help="bid cost model")
     g.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     g.add_argument("--sets", type=_positive_int, default=2, help="task sets to play (default 2)")
+    g.add_argument(
+        "--avoidance",
+        choices=("orca", "none"),
+        default=None,
+        help="collision avoidance, overriding the scenario's [spatial] avoidance "
+        "(default: the scenario's)",
+    )
     g.add_argument("--gif", type=Path, required=True, help="output GIF path")
     g.add_argument("--mp4", type=Path, default=None, help="also write an MP4 (needs ffmpeg)")
     g.add_argument("--frames", type=_positive_int, default=200, help="frames in the GIF")
@@ -327,6 +347,51 @@ def build_parser() -> argparse.ArgumentParser:
         default=["sim", "gif", "alloc"],
         help="comma-separated parts (default sim,gif,alloc)",
     )
+    h = sub.add_parser(
+        "hardcase",
+        help="a classic hard case of robot motion (circle swap, junction, ...): times, contacts",
+        description="Run one classic hard case of multi-robot motion in the pymunk world "
+        "(robots of radius 0.25 m at 1 m/s, each sent straight to a goal of its own): circle "
+        "(n robots on a 5 m circle swap to antipodal points; IR-SIM 2.12's RVO example: 10 "
+        "robots in 17.8 s, 20 in 23.1 s), junction (4 robots cross), corridor (2 robots swap "
+        "ends of a 0.75 m corridor), parked (a robot passes n - 1 parked robots), site (n "
+        "robots sent to one site, 2 s of work each). Prints the time until every robot arrived, "
+        "the contacts begun (touch or impact) and the closest two centres came.",
+    )
+    h.add_argument("case", help="circle, junction, corridor, parked or site")
+    h.add_argument(
+        "--robots",
+        type=_positive_int,
+        default=None,
+        help="robots (default: circle 20, junction 4, corridor 2, parked 11, site 30)",
+    )
+    h.add_argument(
+        "--avoidance", choices=("orca", "none"), default="orca", help="[spatial] avoidance"
+    )
+    h.add_argument(
+        "--control",
+        choices=("auto", "array", "scalar"),
+        default="auto",
+        help="control period: per robot in Python (scalar), numpy (array), or by team size",
+    )
+    h.add_argument(
+        "--limit-s",
+        type=_positive_float,
+        default=None,
+        help="give up after this much simulated time, s (default: the case's, 60-300 s)",
+    )
+    h.add_argument("--gif", type=Path, default=None, help="also write an animated GIF here")
+    h.add_argument("--frames", type=_positive_int, default=150, help="frames in the GIF")
+    h.add_argument("--fps", type=_positive_int, default=15, help="frames per second of playback")
+    h.add_argument(
+        "--size",
+        type=_size,
+        default=(480, None),
+        help="GIF size W (height fitted to the arena) or WxH, pixels (default 480)",
+    )
+    h.add_argument("--json", action="store_true", help="print one JSON object")
+    h.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
+
     k = sub.add_parser(
         "soak",
         help="a long spatial run: memory, overlaps, stuck robots and invariants over 100k tasks",

@@ -13,50 +13,8 @@ import math
 import numpy as np
 import pytest
 
+from sim.hardcases import circle, swap_world, time_to_all_arrive
 from sim.orca import forward_speed, half_planes, solve
-from sim.physics import PymunkWorld
-from sim.recording import DRIVING
-from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
-from sim.tasks import Batch
-
-ONE_MPS = DriveSpec(max_wheel_speed_radps=12.5)  # 0.08 m wheels: 1 m/s top speed, radius 0.25 m
-
-
-def swap_world(starts, goals, size_m, control, avoidance="orca", obstacles=()) -> PymunkWorld:
-    """Robots at ``starts``, each sent at once to its own goal (one task type per robot)."""
-    n = len(starts)
-    sp = SpatialSpec(
-        size_m[0],
-        size_m[1],
-        tuple(obstacles),
-        tuple((tuple(g),) for g in goals),
-        ONE_MPS,
-        arrive_tol_m=0.1,
-        avoidance=avoidance,
-    )
-    robots = tuple(RobotSpec(f"R{k}", (k,), tuple(starts[k])) for k in range(n))
-    types = tuple(f"T{k}" for k in range(n))
-    sc = Scenario("swap", types, robots, ((1.0,) * n,) * n, (1000.0,) * n, spatial=sp)
-    world = PymunkWorld(sc, control=control)
-    world.reset(np.random.default_rng(0))
-    batch = Batch(0, 0, np.arange(n), np.arange(n), np.zeros(n, bool), np.asarray(goals, float))
-    world.apply(batch, np.arange(n), np.ones(n))
-    return world
-
-
-def time_to_all_arrive(world: PymunkWorld, limit_s: float) -> float:
-    """Simulated time at which the last robot arrived (inf if not within ``limit_s``)."""
-    while world.time_s < limit_s:
-        world.advance(0.1)
-        if not (world.fleet.state == DRIVING).any():
-            return world.time_s
-    return math.inf
-
-
-def circle(n: int, radius_m: float = 5.0, centre=(7.0, 7.0)):
-    angle = 2.0 * math.pi * np.arange(n) / n
-    starts = np.column_stack([np.cos(angle), np.sin(angle)]) * radius_m + centre
-    return starts, 2.0 * np.asarray(centre) - starts
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sim.hardcases import circle, swap_world
 from sim.jobs import AROUND_M, EXIT_M, EXIT_TIMEOUT_S, QUEUE_M
 from sim.recording import DRIVING, IDLE, WAITING, WORKING, shown_states
 from tests.sim.test_jobs import at, give, make_world, orca_world, waypoints
-from tests.sim.test_orca import circle, swap_world
 
 SITE = 10 + 5j
 RING = 2 * 0.25 + 0.35  # m, the 4 service slots round a service point

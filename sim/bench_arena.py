@@ -15,9 +15,14 @@ from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
 
 
 def bench_scenario(
-    n: int, rng: np.random.Generator, dt_s: float = 1.0 / 60.0, control_hz: float = 10.0
+    n: int,
+    rng: np.random.Generator,
+    dt_s: float = 1.0 / 60.0,
+    control_hz: float = 10.0,
+    avoidance: str = "none",
 ) -> Scenario:
-    """A square arena for ``n`` robots on a start grid, with box obstacles and task sites."""
+    """A square arena for ``n`` robots on a start grid, with box obstacles and task sites
+    (``avoidance``: the ``[spatial] avoidance`` of the arena)."""
     side = max(20.0, float(np.ceil(np.sqrt(13.0 * n))))
     cols = int(np.ceil(np.sqrt(n)))
     pitch = side / (cols + 1)
@@ -44,6 +49,7 @@ def bench_scenario(
         DriveSpec(),
         dt_s=dt_s,
         control_hz=control_hz,
+        avoidance=avoidance,
     )
     robots = tuple(RobotSpec(f"R{k + 1}", (0,), starts[k]) for k in range(n))
     return Scenario(f"bench{n}", ("T",), robots, ((1.0,),) * n, (2.0,), spatial=spatial)

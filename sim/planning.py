@@ -33,6 +33,8 @@ _SNAP_M = 1e-6  # how far past a boundary a point pushed out of an obstacle land
 _CHUNK = 1 << 20  # (pair, edge) entries per vectorised visibility chunk
 _FIRST_BATCH = 8  # vertices tested per query in the first round (then 4x more each round)
 FIELD_MIN_ROBOTS = 256  # distances for this many positions or more come from the field
+LOCAL_MIN_VERTICES = 256  # path_around in an arena with more vertices plans in a local box ...
+LOCAL_MARGIN_M = 6.0  # ... this much round the start, the goal and the robots, m
 
 
 def halfplanes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -475,7 +477,9 @@ class GridPlanner:
         octagon round a disc of ``radius_m`` (the robot's body), grown like every obstacle by
         a robot radius plus the clearance. A start inside such a grown robot is pushed out of
         it first. For the rare re-plan of a robot in a deadlock: it builds a planner of its own
-        (a new visibility graph), milliseconds, and caches nothing."""
+        (a new visibility graph), milliseconds, and caches nothing; in an arena of more than
+        ``LOCAL_MIN_VERTICES`` obstacle vertices only within ``LOCAL_MARGIN_M`` of the start,
+        the goal and the robots (a path that would leave that box is not found)."""
         robots = np.asarray(robots, dtype=complex).reshape(-1)
         if not len(robots):
             return self.path(start_xy, goal_xy)
@@ -485,7 +489,18 @@ class GridPlanner:
         other = GridPlanner.__new__(GridPlanner)
         other.spatial, other.inflate_m, other.tol_m = self.spatial, self.inflate_m, self.tol_m
         other.lo_, other.hi_, other.box_ = self.lo_, self.hi_, self.box_
-        other.set_obstacles(list(self.obstacles) + octagons)
+        obstacles = list(self.obstacles)
+        if len(self.vertices_) > LOCAL_MIN_VERTICES:  # a large arena: plan in a box round it
+            pts = np.vstack([np.reshape(start_xy, (1, 2)), np.reshape(goal_xy, (1, 2))])
+            pts = np.vstack([pts, np.column_stack([robots.real, robots.imag])])
+            lo = np.maximum(pts.min(axis=0) - LOCAL_MARGIN_M, self.lo_)
+            hi = np.minimum(pts.max(axis=0) + LOCAL_MARGIN_M, self.hi_)
+            other.lo_, other.hi_ = lo, hi
+            other.box_ = (*(lo - _TOL_M).tolist(), *(hi + _TOL_M).tolist())
+            near = (self.bb_hi_ >= lo - self.inflate_m).all(axis=1)
+            near &= (self.bb_lo_ <= hi + self.inflate_m).all(axis=1)
+            obstacles = [o for o, keep in zip(obstacles, near.tolist(), strict=True) if keep]
+        other.set_obstacles(obstacles + octagons)
         return other.path(start_xy, goal_xy)
 
     def side_step(

@@ -70,6 +70,7 @@ def bench_sim(
     rng: np.random.Generator | None = None,
     control_hz: float = 10.0,
     allocator=None,
+    avoidance: str = "none",
 ) -> dict[str, dict[str, float]]:
     """Measure the pymunk world's speed for each robot count.
 
@@ -81,6 +82,7 @@ def bench_sim(
         control_hz: control rate (physics runs at 60 Hz).
         allocator: ``allocator(scenario, world)`` returns the ``allocate(batch)`` callable of
             :func:`_run` (the auction), or None to hand tasks out in order.
+        avoidance: ``[spatial] avoidance`` of the arenas, "none" or "orca".
 
     Returns:
         ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s",
@@ -102,7 +104,7 @@ def bench_sim(
             sim_s = DEFAULT_SIM_S.get(n, max(10.0, 12000.0 / n))
         else:
             sim_s = sim_seconds[n] if isinstance(sim_seconds, dict) else float(sim_seconds)
-        scenario = bench_scenario(n, rng, control_hz=control_hz)
+        scenario = bench_scenario(n, rng, control_hz=control_hz, avoidance=avoidance)
         world = PymunkWorld(scenario)
         sp = scenario.spatial
         world.recorder = TrajectoryRecorder(

@@ -69,9 +69,12 @@ class PlannedMarket:
         return np.where(won >= 0, free[np.maximum(won, 0)], -1), costs
 
 
-def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
-    """The 10-robot paper scenario through the whole loop of ``mrta run``, against bare
-    ``space.step`` on the same bodies afterwards.
+def bench_paper_loop(
+    sets: int = PAPER_SETS, seed: int = 0, avoidance: str = "none"
+) -> dict[str, float]:
+    """The 10-robot paper scenario through the whole loop of ``mrta run`` (with
+    ``[spatial] avoidance`` set to ``avoidance``), against bare ``space.step`` on the same
+    bodies afterwards.
 
     Returns:
         ``{"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s"}``.
@@ -84,6 +87,7 @@ def bench_paper_loop(sets: int = PAPER_SETS, seed: int = 0) -> dict[str, float]:
     from sim.recording import TrajectoryRecorder
 
     part = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
+    part += (("spatial.avoidance", avoidance),)
     spec = RunSpec("paper_spatial", "market", "distance", seed, part)
     scenario, stream, world, cost, allocator, rng = build_run(spec)
     recorder = TrajectoryRecorder.for_scenario(scenario)
@@ -134,6 +138,11 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
         paper = bench_paper_loop()
         paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
         out["sim"] = {"10": paper, **synthetic}
+        # the same loops with collision avoidance on ([spatial] avoidance = "orca"), same run
+        synthetic = bench_sim(allocator=PlannedMarket, avoidance="orca")
+        paper = bench_paper_loop(avoidance="orca")
+        paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
+        out["sim_orca"] = {"10": paper, **synthetic}
         for n, r in out["sim"].items():
             what = "paper_spatial, whole run loop" if n == "10" else "busy synthetic arena"
             if n != "10":
@@ -163,6 +172,14 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             f"     10 robots, busy synthetic arena: {busy['busy_rtf']:,.0f}x real time, "
             f"loop/bare = {busy['busy_bare_ratio']:.2f}"
         )
+        say("sim, collision avoidance on (ORCA): the same loops, loop/bare and its cost alone")
+        for n, r in out["sim_orca"].items():
+            base = out["sim"][n]["bare_ratio"]
+            say(
+                f"  {n:>5} robots: {r['steps_per_s']:>9,.0f} steps/s  {r['rtf']:>7,.0f}x real time "
+                f" loop/bare = {r['bare_ratio']:.2f} (without avoidance {base:.2f})  "
+                f"avoidance/bare = {r['avoid_bare_ratio']:.2f} ({r['avoid_share']:.0%} of the loop)"
+            )
     if "gif" in parts:
         from scenarios.bench.gif import bench_gif
 

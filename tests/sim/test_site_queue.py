@@ -217,3 +217,27 @@ def test_thirty_robots_sent_to_one_site_all_work_there_within_90_s_without_a_con
     assert worked.all(), f"{int((~worked).sum())} robots never worked within 90 s"
     assert world.contacts.robot_hits == 0 and world.contacts.wall_hits == 0
     assert world.jobs.failures == 0
+
+
+def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_path(monkeypatch):
+    """More than LOCAL_MIN_VERTICES obstacle vertices: the throwaway planner keeps only the
+    obstacles near the start, the goal and the robots; round one robot in open floor that
+    gives the path the whole arena gives."""
+    import sim.planning as planning
+    from sim.scenario import DriveSpec, SpatialSpec
+
+    boxes = tuple(
+        ((x, y), (x + 1.0, y), (x + 1.0, y + 1.0), (x, y + 1.0))
+        for x in range(5, 60, 6)
+        for y in range(5, 60, 6)
+    )
+    sp = SpatialSpec(64.0, 64.0, boxes, (((2.0, 2.0),),), DriveSpec())
+    pl = planning.GridPlanner(sp)
+    assert len(pl.vertices_) > planning.LOCAL_MIN_VERTICES
+    start, goal, robot = (2.5, 3.0), (9.0, 3.0), np.array([5.0 + 3.0j])
+    local = pl.path_around(start, goal, robot, 0.25)
+    monkeypatch.setattr(planning, "LOCAL_MIN_VERTICES", 10**9)
+    whole = pl.path_around(start, goal, robot, 0.25)
+    assert len(local) > 2 and np.allclose(local, whole)
+    far = pl.path_around((2.5, 3.0), (62.0, 62.0), robot, 0.25)  # goal far off: the box grows
+    assert len(far) and np.allclose(far[-1], (62.0, 62.0))

@@ -308,15 +308,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     g.add_argument("--gif", type=Path, required=True, help="output GIF path")
     g.add_argument("--mp4", type=Path, default=None, help="also write an MP4 (needs ffmpeg)")
-    g.add_argument("--frames", type=_positive_int, default=200, help="frames in the GIF")
-    g.add_argument("--fps", type=_positive_int, default=20, help="frames per second of playback")
-    g.add_argument(
-        "--size",
-        type=_size,
-        default=(600, None),
-        help="W or WxH pixels; W alone fits the height to the arena, so no band stays empty "
-        "(default 600)",
-    )
+    _gif_options(g, frames=200, fps=20, width=600)
     g.add_argument(
         "--from", dest="t_from", type=float, default=0.0, help="start, simulated s (default 0)"
     )
@@ -381,14 +373,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="give up after this much simulated time, s (default: the case's, 60-300 s)",
     )
     h.add_argument("--gif", type=Path, default=None, help="also write an animated GIF here")
-    h.add_argument("--frames", type=_positive_int, default=150, help="frames in the GIF")
-    h.add_argument("--fps", type=_positive_int, default=15, help="frames per second of playback")
-    h.add_argument(
-        "--size",
-        type=_size,
-        default=(480, None),
-        help="GIF size W (height fitted to the arena) or WxH, pixels (default 480)",
-    )
+    _gif_options(h, frames=150, fps=15, width=480)
     h.add_argument("--json", action="store_true", help="print one JSON object")
     h.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
@@ -487,6 +472,19 @@ def add_study_parser(subparsers) -> argparse.ArgumentParser:
     )
     add_runner_options(p)
     return p
+
+
+def _gif_options(p: argparse.ArgumentParser, frames: int, fps: int, width: int) -> None:
+    """--frames, --fps and --size of a command that writes a GIF, with these defaults."""
+    p.add_argument("--frames", type=_positive_int, default=frames, help="frames in the GIF")
+    p.add_argument("--fps", type=_positive_int, default=fps, help="frames per second of playback")
+    p.add_argument(
+        "--size",
+        type=_size,
+        default=(width, None),
+        help="W or WxH pixels; W alone fits the height to the arena, so no band stays empty "
+        f"(default {width})",
+    )
 
 
 def _allocator_name(text: str) -> str:

@@ -595,8 +595,10 @@ class Jobs:
         ``EXIT_M`` beyond ``QUEUE_M`` from the site, to the free one of 11 end points (straight
         away from the site, then turned by 30 to 150 degrees either way) whose straight line
         passes farthest from the robots around it (clearances of two robot reaches and more
-        count alike; then the least turned), so the next in the queue gets its place. True if
-        it drives out; the caller calls :meth:`refresh`."""
+        count alike; then the least turned), so the next in the queue gets its place; a line
+        closer than one reach to a robot let in to that site does not count (if none is left
+        it stays, and is asked again). True if it drives out; the caller calls
+        :meth:`refresh`."""
         f, z = self.fleet, self.fleet.last_z_m[j]
         site = self.service[j] if site is None else site
         if abs(z - site) >= QUEUE_M or self.broken[j]:
@@ -612,17 +614,12 @@ class Jobs:
         turns = np.radians(np.arange(-150, 151, 30))
         ends = site + (QUEUE_M + EXIT_M) * away * np.exp(1j * turns)
         ok = self.planner.free(np.column_stack([ends.real, ends.imag]))
-        if not ok.any():
-            return False
         # the straight way out that passes farthest from the robots around (ties: least turned)
-        others = f.last_z_m[np.abs(f.last_z_m - z) < QUEUE_M + EXIT_M]
-        others = others[others != z]
-        clear = np.full(len(ends), np.inf)
-        if len(others):
-            seg = ends - z
-            u = ((others[None, :] - z) * seg.conj()[:, None]).real / np.abs(seg)[:, None] ** 2
-            near = z + np.clip(u, 0.0, 1.0) * seg[:, None]
-            clear = np.abs(others[None, :] - near).min(axis=1)
+        around = np.abs(f.last_z_m - z) < QUEUE_M + EXIT_M
+        around[j] = False
+        clear = self.clearance(z, ends, f.last_z_m[around])
+        # ... and never straight at a robot driving in (let in, not holding): both would stop
+        ok &= self.clearance(z, ends, f.last_z_m[around & coming & self.admitted]) >= self.reach_m
         order = np.lexsort((np.abs(turns), -np.minimum(clear, 2.0 * self.reach_m)))
         for k in order[ok[order]].tolist():
             path = self.planner.path((z.real, z.imag), (ends[k].real, ends[k].imag))
@@ -631,6 +628,17 @@ class Jobs:
                 f.yielding[j], f.yield_until_s[j] = True, t + EXIT_TIMEOUT_S
                 return True
         return False
+
+    @staticmethod
+    def clearance(z: complex, ends: np.ndarray, others: np.ndarray) -> np.ndarray:
+        """(len(ends),) how close the points ``others`` come to each segment from ``z`` to an
+        end, m (inf without others)."""
+        if not len(others):
+            return np.full(len(ends), np.inf)
+        seg = ends - z
+        u = ((others[None, :] - z) * seg.conj()[:, None]).real / np.abs(seg)[:, None] ** 2
+        near = z + np.clip(u, 0.0, 1.0) * seg[:, None]
+        return np.abs(others[None, :] - near).min(axis=1)
 
     def step_clear(self, rows: list[int], t: float) -> None:
         """Idle robots ``rows`` stand on a service point another robot comes for: each steps

@@ -241,3 +241,21 @@ def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_pa
     assert len(local) > 2 and np.allclose(local, whole)
     far = pl.path_around((2.5, 3.0), (62.0, 62.0), robot, 0.25)  # goal far off: the box grows
     assert len(far) and np.allclose(far[-1], (62.0, 62.0))
+
+
+def test_a_leaving_robot_never_heads_straight_at_a_robot_let_in_and_else_stays():
+    w, f, jobs = crowd(1)
+    jobs.admitted[1] = True
+    f.last_z_m[0], jobs.service[0] = SITE + 0.5j, SITE
+    f.last_z_m[1] = SITE + 2.0j  # driving in from straight above
+    assert jobs.leave(0, 9.0) is True
+    end = waypoints(w, 0)[-1]
+    assert abs(end - (SITE + (QUEUE_M + EXIT_M) * 1j)) > 1.0  # not straight up at it ...
+    assert segment_clearance(f.last_z_m[0], end, f.last_z_m[1:2]) >= w.reach_m_  # ... clear
+    # hemmed in: an admitted robot close on every side of the 11 lines -> it stays
+    _, f2, jobs2 = crowd(4)
+    jobs2.admitted[1:5] = True
+    f2.last_z_m[0], jobs2.service[0] = SITE, SITE
+    f2.last_z_m[1:5] = SITE + 0.55 * np.exp(1j * np.pi * np.array([0.0, 0.5, 1.0, 1.5]))
+    f2.yielding[0] = False
+    assert jobs2.leave(0, 9.0) is False and not f2.yielding[0]

@@ -39,6 +39,9 @@ TAU_S = 1.5  # time horizon toward other robots, s
 TAU_OBSTACLE_S = 0.6  # ... toward walls and obstacles, s
 MARGIN_M = 0.05  # added to the robot radius: a command is held one period while it turns, m
 WALL_GAP_M = 0.05  # ... and this toward walls and obstacles, the air the half-plane keeps, m
+LANE_AIR_M = 0.05  # air kept inside the free width of a robot's path segment, m
+LANE_NARROW_M = 1.0  # ... where that free width is narrower than this, m
+LANE_NEAR_M = 0.5  # ... and a wall or obstacle is this close to the robot's body, m
 MAX_NEIGHBOURS = 6  # the nearest robots within range that give a half-plane
 BACK_SHARE = 0.3  # share of the top speed a robot may reverse at to honour its half-planes
 RIGHT_BIAS_DEG = 30.0  # a robot with a binding half-plane prefers this much to the right
@@ -203,6 +206,7 @@ def avoid(
     v_max: float,
     dt_s: float,
     to_obstacle,
+    lanes=None,
 ):
     """ORCA commands for the robots ``rows`` whose planned velocity leaves an ORCA half-plane.
 
@@ -214,6 +218,12 @@ def avoid(
         steering: (m,) bool, robots that avoid too (a reciprocal share of one half).
         radius_m: robot radius; v_max: top speed; dt_s: the control period.
         to_obstacle: maps (k,) positions to the nearest obstacle point, x + iy from each.
+        lanes: maps (k,) positions and robot indices to the unit left of each one's path
+            segment and its room left and right within the segment's free width
+            (``PathFollower.lane_room``); where that width is below ``LANE_NARROW_M`` and an
+            obstacle within ``LANE_NEAR_M`` of the body (a single lane, here), two more
+            half-planes keep it inside, less ``LANE_AIR_M``, over ``TAU_OBSTACLE_S``. None:
+            only the nearest obstacle point.
 
     Returns:
         None when no half-plane binds; else the robots whose plan is replaced and their
@@ -248,9 +258,19 @@ def avoid(
         return None
     normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
     pref = pref * KEEP_RIGHT
-    on, oc = obstacle_plane(to_obstacle(zi[bind]), r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
+    ob = to_obstacle(zi[bind])
+    on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
     normal = np.concatenate([normal, on[:, None]], axis=1)
     offset = np.concatenate([offset, oc[:, None]], axis=1)
+    if lanes is not None:
+        left, room_l, room_r = lanes(zi[bind], rows[bind])
+        real = (np.abs(left) > 0.5) & (room_l + room_r < LANE_NARROW_M)
+        real &= np.abs(ob) < radius_m + LANE_NEAR_M  # ... and between walls here, not past them
+        lane_n = np.column_stack([np.where(real, -left, 1.0), np.where(real, left, 1.0)])
+        room = np.column_stack([room_l, room_r]) - LANE_AIR_M
+        lane_c = np.where(real[:, None] & np.isfinite(room), -room / TAU_OBSTACLE_S, -_BIG)
+        normal = np.concatenate([normal, lane_n], axis=1)
+        offset = np.concatenate([offset, lane_c], axis=1)
     u = solve(normal, offset, pref, v_max)
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)

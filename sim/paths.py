@@ -331,6 +331,15 @@ class PathFollower:
         self.version_ += 1
         return True
 
+    def lane_room(self, z: np.ndarray, rows: np.ndarray):
+        """Robots ``rows`` at ``z`` (x + iy, m): the unit vector to the left of their current
+        segment (0 for a segment of no length) and the room their centre has to the left and
+        to the right before it leaves the segment's free width, m (inf where it is unbounded,
+        negative beyond it)."""
+        side = ((self.tgt_[rows] - z) * self.unit_c_[rows]).imag  # minus the left offset
+        left = 1j * self.unit_c_[rows].conj()
+        return left, side - self.free_[0, rows], self.free_[1, rows] - side
+
     def to_obstacle(self, z: np.ndarray) -> np.ndarray:
         """From each point z (k,) to the nearest point of any obstacle or wall (x + iy)."""
         if not self.n_owner_ or not len(z):

@@ -40,4 +40,5 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float):
         c.v_max_mps,
         c.react_s,
         parts.follower.to_obstacle,
+        parts.follower.lane_room,
     )

@@ -163,3 +163,42 @@ def test_robots_sent_to_one_taken_site_work_in_its_slots_within_the_tolerance(co
     assert np.abs(xy - complex(*site)).min() <= sp.arrive_tol_m  # one on the service point
     assert world.collisions_robot_ == 0
     assert world.jobs.failures == 0
+
+
+def test_in_a_narrow_lane_orca_keeps_the_velocity_inside_the_free_width(monkeypatch):
+    """Robot 0 drives +x in a lane with 0.06 m of room to its right; robot 1 comes head-on a
+    little to its left, so ORCA (with the right-hand preference) would step right. With the
+    lane's half-planes the chosen velocity moves right at most (0.06 - LANE_AIR_M) /
+    TAU_OBSTACLE_S; without them, in a lane wider than LANE_NARROW_M or with no wall within
+    LANE_NEAR_M of the body, they do not apply."""
+    from sim import orca
+
+    got = []
+    inner = orca.solve
+    monkeypatch.setattr(orca, "solve", lambda *a: got.append(inner(*a)) or got[-1])
+    z = np.array([0.0 + 0.0j, 1.2 + 0.1j])
+    vel = np.array([1.0 + 0j, -1.0 + 0j])
+    h = np.array([1.0 + 0j, -1.0 + 0j])
+    rows = np.array([0])
+    near = lambda pts: np.full(len(pts), -0.6j)  # noqa: E731  a wall 0.35 m right of the body
+    args = (z, vel, h, rows, np.array([1.0 + 0j]), np.array([1.0]), np.array([True, True]))
+    args += (0.25, 1.0, 0.1, near)
+
+    def lanes(room_right, room_left=0.3):
+        return lambda pts, idx: (np.array([1j]), np.array([room_left]), np.array([room_right]))
+
+    orca.avoid(*args)
+    free = got[-1][0]
+    orca.avoid(*args, lanes(0.06))
+    laned = got[-1][0]
+    orca.avoid(*args, lanes(1.0, 1.0))  # 2 m of free width: not a narrow lane
+    wide = got[-1][0]
+    far = lambda pts: np.full(len(pts), 50.0 + 0j)  # noqa: E731
+    orca.avoid(*args[:-1], far, lanes(0.06))  # no wall near: past the narrow part
+    past = got[-1][0]
+    orca.avoid(*args[:-1], far)
+    assert past == got[-1][0]
+    bound = (0.06 - orca.LANE_AIR_M) / orca.TAU_OBSTACLE_S
+    assert -free.imag > bound  # without the lane ORCA steps right ...
+    assert -laned.imag <= bound + 1e-9  # ... with it, no faster than the room allows
+    assert wide == free

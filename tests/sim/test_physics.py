@@ -562,3 +562,19 @@ def test_tries_start_again_once_a_robot_got_past_where_it_was_stuck(control, dri
         assert not failed and f.recoveries[0] == 1 and f.state[0] == DRIVING
     else:
         assert [c.reason.split(":")[0] for c in failed] == ["stuck"]
+
+
+def test_lane_room_is_the_room_left_within_the_free_width_of_the_segment():
+    """A path along y = 3.4, 0.4 m above a box (right of the path) and 6.6 m below the top
+    wall: a robot 0.1 m left of the path has 0.1 m less room on the left and 0.1 m more on the
+    right than the free widths; the left unit points +y."""
+    box = ((5.0, 1.0), (7.0, 1.0), (7.0, 3.0), (5.0, 3.0))
+    walls = [((0, 0), (20, 0)), ((20, 0), (20, 10)), ((20, 10), (0, 10)), ((0, 10), (0, 0))]
+    f = PathFollower(1, 1.5, [box, *walls], R)
+    f.set_path(0, np.array([[1.0, 3.4], [12.0, 3.4]]))
+    f.targets(np.array([1.0 + 3.4j]))  # load the segment into the first waypoint... then on
+    left, room_l, room_r = f.lane_room(np.array([6.0 + 3.5j]), np.array([0]))
+    assert left[0] == pytest.approx(1j)
+    assert room_r[0] == pytest.approx(f.free_m[0, 1, 1] + 0.1)
+    assert room_l[0] == pytest.approx(f.free_m[0, 1, 0] - 0.1)
+    assert f.free_m[0, 1, 1] == pytest.approx(0.4 - R)

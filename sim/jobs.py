@@ -35,6 +35,7 @@ QUEUE_M = 2.5  # avoidance on: a robot this close to a site with every place tak
 CROWD_M = 1.0  # ... as does one this close (centres) to a robot already holding for that site
 EXIT_M = 1.5  # a robot that finished where others hold drives this far beyond QUEUE_M out
 EXIT_TIMEOUT_S = 20.0  # ... and gives up driving out after this long
+HOLD_MAX_S = 300.0  # a robot may hold in a site's queue this long before its task times out
 AROUND_M = 3.0  # avoidance on: a stuck robot plans round the robots this close (centres), m
 DETOUR_FACTOR = 3.0  # ... and takes that path if at most this times the path it had ...
 DETOUR_EXTRA_M = 10.0  # ... plus this, m
@@ -474,8 +475,9 @@ class Jobs:
         in while the site has a free place (its service point and obstacle-free slots, less
         the robots let in or at work there), first come first served; otherwise it holds
         where it is (a path to its own position; its stuck clock stopped, so it is drawn as
-        waiting) until a place is free. The deadline of a robot let in after holding moves on
-        by the time it held. Schedules the next check."""
+        waiting) until a place is free. Holding does not use up a task's time: the deadline
+        of a robot let in after holding moves on by the time it held, and while it holds it
+        has ``HOLD_MAX_S`` more. Schedules the next check."""
         f, z = self.fleet, self.fleet.last_z_m
         driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t)
         if not driving.any():
@@ -497,7 +499,7 @@ class Jobs:
         rows = near.nonzero()[0]
         if len(rows):
             self.let_in_or_hold(rows, gap, t)
-        self.clear_loiterers(driving & self.admitted & (gap < QUEUE_M), t)
+        self.clear_loiterers(driving & ((self.admitted & (gap < QUEUE_M)) | self.holding), t)
 
     def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
         """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them), first
@@ -511,6 +513,7 @@ class Jobs:
                 changed |= self.let_in(j, place, t)
             elif not self.holding[j]:
                 self.holding[j], self.hold_since_s[j] = True, t
+                f.deadline_s[j] += HOLD_MAX_S  # waiting its turn does not run its clock out
                 here = np.array([[z[j].real, z[j].imag]] * 2)
                 self.follower.set_path(j, here)
                 f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
@@ -549,7 +552,7 @@ class Jobs:
         held = self.holding[j]
         if held:
             self.holding[j] = False
-            f.deadline_s[j] += t - self.hold_since_s[j]
+            f.deadline_s[j] += t - self.hold_since_s[j] - HOLD_MAX_S
             self.hold_since_s[j] = np.inf
         if place == f.site[j] and not held:
             return False
@@ -573,8 +576,8 @@ class Jobs:
         return self._places[site]
 
     def clear_loiterers(self, coming: np.ndarray, t: float) -> None:
-        """Idle robots standing within ``QUEUE_M`` of a site that robots ``coming`` (a mask)
-        have been let in to drive out (:meth:`leave`)."""
+        """Idle robots standing within ``QUEUE_M`` of a site that robots ``coming`` (a mask:
+        let in to it, or holding in its queue) come to drive out (:meth:`leave`)."""
         f = self.fleet
         idle = (f.state == IDLE) & ~f.yielding & ~self.broken
         if not (idle.any() and coming.any()):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from sim.hardcases import circle, swap_world
-from sim.jobs import AROUND_M, EXIT_M, EXIT_TIMEOUT_S, QUEUE_M
+from sim.jobs import AROUND_M, EXIT_M, EXIT_TIMEOUT_S, HOLD_MAX_S, QUEUE_M
 from sim.recording import DRIVING, IDLE, WAITING, WORKING, shown_states
 from tests.sim.test_jobs import at, give, make_world, orca_world, waypoints
 
@@ -57,16 +57,18 @@ def test_a_full_site_lets_in_as_many_as_it_has_places_and_the_rest_hold_waiting(
 def test_first_come_first_served_and_the_deadline_moves_on_by_the_hold():
     w, f, jobs = crowd(7)
     f.last_z_m[1:8] = SITE + 2.0 * np.exp(1j * np.linspace(0.1, 3.0, 7))
+    deadline = f.deadline_s.copy()
     jobs.queue(at(w, 12.0))
     held = jobs.holding.nonzero()[0].tolist()
-    deadline = f.deadline_s.copy()
+    for j in held:  # while it holds, its task does not time out for HOLD_MAX_S more
+        assert f.deadline_s[j] == deadline[j] + HOLD_MAX_S
     jobs.hold_since_s[held[1]] = 11.0  # held[1] came first
     one = jobs.admitted.nonzero()[0][0]
     jobs.finish(int(one), 20.0, True)  # a place frees
     jobs.queue(at(w, 20.0))
     assert jobs.admitted[held[1]] and jobs.holding[held[0]]
     assert f.deadline_s[held[1]] == deadline[held[1]] + (20.0 - 11.0)
-    assert f.deadline_s[held[0]] == deadline[held[0]]
+    assert f.deadline_s[held[0]] == deadline[held[0]] + HOLD_MAX_S
     assert np.isinf(jobs.hold_since_s[held[1]]) and f.t_progress_s[held[1]] == 20.0
     assert waypoints(w, held[1])[-1] == f.site[held[1]]
 
@@ -259,3 +261,18 @@ def test_a_leaving_robot_never_heads_straight_at_a_robot_let_in_and_else_stays()
     f2.last_z_m[1:5] = SITE + 0.55 * np.exp(1j * np.pi * np.array([0.0, 0.5, 1.0, 1.5]))
     f2.yielding[0] = False
     assert jobs2.leave(0, 9.0) is False and not f2.yielding[0]
+
+
+def test_idle_robots_on_every_place_are_sent_out_for_a_robot_holding_in_the_queue():
+    """Five idle robots stand on the service point and the four slots: nobody can be let in,
+    so robot 5 holds, and the idle robots are asked to leave for it (before, with no robot let
+    in, nobody asked them and the queue waited for ever)."""
+    places = [SITE + (RING * np.exp(1j * np.pi / 2 * k) if k else 0) for k in range(5)]
+    starts = [(p.real, p.imag) for p in places] + [(10.0, 8.0)]
+    w = orca_world(starts)
+    f, jobs = w.fleet, w.jobs
+    give(w, [5], [(10.0, 5.0)])
+    f.last_z_m[:] = np.array(places + [10 + 7.0j])
+    jobs.queue(at(w, 4.0))
+    assert jobs.holding[5] and not jobs.admitted[5]
+    assert f.yielding[:5].any()  # asked to drive out

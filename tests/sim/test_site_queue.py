@@ -272,7 +272,7 @@ def test_idle_robots_on_every_place_are_sent_out_for_a_robot_holding_in_the_queu
     w = orca_world(starts)
     f, jobs = w.fleet, w.jobs
     give(w, [5], [(10.0, 5.0)])
-    f.last_z_m[:] = np.array(places + [10 + 7.0j])
+    f.last_z_m[:] = np.array([*places, 10 + 7.0j])
     jobs.queue(at(w, 4.0))
     assert jobs.holding[5] and not jobs.admitted[5]
     assert f.yielding[:5].any()  # asked to drive out

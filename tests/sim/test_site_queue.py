@@ -276,3 +276,80 @@ def test_idle_robots_on_every_place_are_sent_out_for_a_robot_holding_in_the_queu
     jobs.queue(at(w, 4.0))
     assert jobs.holding[5] and not jobs.admitted[5]
     assert f.yielding[:5].any()  # asked to drive out
+
+
+# ---- pinned by mutation testing (tests/mutation) ------------------------------------------
+
+
+def full_site(extra_at: complex):
+    """Robots 1-5 let in to SITE (its five places kept), robot 6 comes for it and is at
+    ``extra_at``; robot 7 holds for another site (20 m off) right beside robot 6."""
+    starts = [(18.0, 1.0)] + [(2.0 + 1.5 * k, 9.0) for k in range(6)] + [(16.0, 9.0)]
+    w = orca_world(starts)
+    f, jobs = w.fleet, w.jobs
+    give(w, [1, 2, 3, 4, 5, 6, 7], [(10.0, 5.0)] * 6 + [(16.0, 9.0)])
+    f.site[1:6] = f.last_z_m[1:6] = jobs.place_points(SITE)  # each on a place of its own
+    jobs.admitted[1:6] = True
+    f.last_z_m[6] = extra_at
+    jobs.holding[7] = True
+    f.last_z_m[7] = extra_at + 0.5
+    return w, f, jobs
+
+
+def test_exactly_queue_distance_off_is_not_near_and_a_crowd_of_another_site_is_no_queue():
+    w, f, jobs = full_site(SITE + QUEUE_M)  # 12.5 + 5j: exactly QUEUE_M from (10, 5)
+    assert abs(f.last_z_m[6] - SITE) == QUEUE_M
+    jobs.queue(at(w, 4.0))
+    assert not jobs.holding[6] and not jobs.admitted[6]  # beside robot 7, but 7 holds elsewhere
+    f.last_z_m[6] = SITE + QUEUE_M - 1e-9
+    jobs.queue(at(w, 5.0))
+    assert jobs.holding[6]
+
+
+def test_a_robot_whose_back_off_ends_now_is_let_in_and_one_still_backing_off_is_not():
+    w, f, jobs = crowd(1)
+    f.last_z_m[1] = SITE - 1.0
+    t = at(w, 6.0)
+    f.backoff_until_s[1] = t + 0.1
+    jobs.queue(t)
+    assert not jobs.admitted[1]
+    f.backoff_until_s[1] = t
+    jobs.queue(t)
+    assert jobs.admitted[1]
+
+
+def test_leave_needs_the_robot_near_the_site_not_broken_and_someone_coming():
+    _, f, jobs = crowd(1)
+    jobs.admitted[1] = True
+    f.last_z_m[1] = SITE - 3.0
+    jobs.service[0] = SITE
+    f.last_z_m[0] = SITE + QUEUE_M * 1j  # exactly QUEUE_M off: not near
+    assert jobs.leave(0, 9.0) is False
+    f.last_z_m[0] = SITE + 0.5j
+    jobs.broken[0] = True
+    assert jobs.leave(0, 9.0) is False
+    jobs.broken[0] = False
+    f.state[1] = IDLE  # nobody comes
+    assert jobs.leave(0, 9.0) is False
+    assert not f.yielding[0]
+
+
+def test_clearance_measures_to_the_segment_not_the_line_beyond_it():
+    from sim.jobs import Jobs
+
+    ends = np.array([4.0 + 0j])
+    others = np.array([7.0 + 4.0j, 2.0 - 1.0j])  # 5 m beyond the end; 1 m beside the middle
+    got = Jobs.clearance(0j, ends, others)
+    assert got.tolist() == [1.0]
+    assert Jobs.clearance(0j, ends, others[:1]).tolist() == [5.0]
+    assert Jobs.clearance(0j, ends, np.zeros(0, dtype=complex)).tolist() == [np.inf]
+
+
+def test_going_round_again_counts_one_more_try():
+    w = orca_world([(6.0, 5.0), (8.0, 5.0)])
+    f, jobs = w.fleet, w.jobs
+    give(w, [0, 1], [(14.0, 5.0), (2.0, 5.0)])
+    f.last_z_m[:2] = [7.4 + 5j, 8 + 5j]
+    f.recoveries[0] = 1
+    assert jobs.go_round(0, 30.0) is True
+    assert f.recoveries[0] == 2 and jobs.around_s[0] == 30.0

@@ -30,6 +30,8 @@ one law, called by both control periods (``sim.control``) on the robots near oth
 
 from __future__ import annotations
 
+from math import sqrt
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -143,14 +145,62 @@ def solve(normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float
     """Velocity nearest ``pref`` with |u| <= ``v_max`` and n . u >= c for every line, per row;
     where no velocity satisfies every line, the candidate that violates them least.
 
+    The nearest point is unique, so most rows are done before the full enumeration
+    (:func:`solve_enumerated`, which picks the same point): ``pref`` on the speed disc, if it
+    keeps every line; else, for each line j that point breaks, the point of line j inside the
+    disc nearest ``pref`` is the nearest point of half-plane j and the disc, so if it keeps
+    every line it is the answer. Only the rows left over are enumerated.
+
     Args:
         normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
             negative); pref: (n,) preferred velocities.
     """
+    u = pref * np.minimum(1.0, v_max / np.maximum(np.abs(pref), 1e-12))
+    broken = offset - (u[:, None] * normal.conj()).real > 1e-9  # (n, L)
+    left = broken.any(axis=1).nonzero()[0]
+    if not len(left):
+        return u
+    n, c, p, broken = normal[left], offset[left], pref[left], broken[left]
+    q = p[:, None] + (c - (p[:, None] * n.conj()).real) * n  # projections on the lines
+    half = np.sqrt(np.maximum(v_max * v_max - c * c, 0.0))
+    foot = c * n
+    plus, minus = foot + half * 1j * n, foot - half * 1j * n  # where the lines meet the circle
+    lim = v_max * (1.0 + 1e-9)
+    nearer = np.abs(plus - p[:, None]) <= np.abs(minus - p[:, None])
+    q = np.where(np.abs(q) > lim, np.where(nearer, plus, minus), q)  # ... or the chord's end
+    viol = (c[:, None, :] - (q[:, :, None] * n[:, None, :].conj()).real).max(axis=2)
+    ok = broken & (viol <= 1e-9) & (np.abs(q) <= lim)
+    found = ok.any(axis=1)
+    score = np.where(ok[found], np.abs(q[found] - p[found, None]), np.inf)
+    u[left[found]] = q[found, score.argmin(axis=1)]
+    rest = left[~found]
+    if len(rest):
+        u[rest] = solve_enumerated(normal[rest], offset[rest], pref[rest], v_max, pool=pref)
+    return u
+
+
+def solve_enumerated(
+    normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float, pool=None
+) -> np.ndarray:
+    """:func:`solve` by enumeration: every candidate (``pref`` on the speed disc, its
+    projection on each line, the points where a line meets the circle, the crossings of two
+    lines, zero) checked against every line; the nearest feasible one, or where there is none
+    the one that violates the lines least.
+
+    The first candidates of each row are every velocity of ``pool`` (default ``pref``: every
+    row's) scaled as that row's own: so the law has always been computed (``pref`` times a
+    column), and where a row's program is infeasible the least violating candidate can be
+    another robot's preferred velocity. Where it is feasible this changes nothing.
+
+    Args:
+        normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
+            negative); pref: (n,) preferred velocities; pool: (P,) the other rows' ones.
+    """
     n, c = normal, offset
+    pool = pref if pool is None else pool
     big = c > -_BIG / 2
     speed = np.abs(pref)
-    cands = [pref * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
+    cands = [pool * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
     along = (pref[:, None] * n.conj()).real
     cands.append(pref[:, None] + (c - along) * n)
     half = np.sqrt(np.maximum(v_max * v_max - c * c, 0.0))
@@ -277,3 +327,97 @@ def avoid(
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
     v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max)
     return rows[bind], v, err * HEADING_GAIN
+
+
+def half_plane_one(rel_p: complex, rel_v: complex, vel_i: complex, share: float, combined_m, tau):
+    """:func:`half_planes` of one pair in Python complex numbers; ``tau`` is the pair
+    ``(1 / horizon, 1 / control period)``."""
+    inv_tau, inv_dt = tau
+    r2 = combined_m * combined_m
+    dist2 = rel_p.real * rel_p.real + rel_p.imag * rel_p.imag
+    w = rel_v - rel_p * inv_tau
+    if dist2 > r2:
+        w2 = w.real * w.real + w.imag * w.imag
+        dot1 = (w * rel_p.conjugate()).real
+        if not (dot1 < 0.0 and dot1 * dot1 > r2 * w2):  # a leg of the cone
+            leg = sqrt(dist2 - r2)
+            if (rel_p.conjugate() * w).imag > 0.0:
+                direction = rel_p * complex(leg, combined_m) / dist2
+            else:
+                direction = -(rel_p * complex(leg, -combined_m)) / dist2
+            u = (rel_v * direction.conjugate()).real * direction - rel_v
+            normal = 1j * direction
+            return normal, ((vel_i + share * u) * normal.conjugate()).real
+        scale = combined_m * inv_tau
+    else:  # inside a collision: the cut-off circle of the control period
+        w = rel_v - rel_p * inv_dt
+        w2 = w.real * w.real + w.imag * w.imag
+        scale = combined_m * inv_dt
+    w_len = sqrt(w2 if w2 > 1e-18 else 1e-18)
+    unit_w = w / w_len
+    u = (scale - w_len) * unit_w
+    normal = unit_w  # 1j * (-1j unit_w)
+    return normal, ((vel_i + share * u) * normal.conjugate()).real
+
+
+def avoid_small(
+    z: np.ndarray,
+    vel: np.ndarray,
+    h: np.ndarray,
+    rows: np.ndarray,
+    pref: np.ndarray,
+    v_want: np.ndarray,
+    steering: np.ndarray,
+    radius_m: float,
+    v_max: float,
+    dt_s: float,
+    to_obstacle,
+    lanes=None,
+):
+    """:func:`avoid` for a small team: the same commands bit for bit, most periods without it.
+
+    For a handful of robots :func:`avoid` costs numpy's overhead per call, several hundred
+    microseconds, and in most periods no half-plane binds. Here every robot of ``rows`` is
+    first looked at in plain Python (:func:`may_bind`), and :func:`avoid` runs on the robots
+    that may bind only, or not at all. The screen keeps a robot whenever its plan leaves one of
+    its half-planes by more than zero, against every robot in range: a margin of 1e-9 over the
+    law's own test and a superset of its neighbours, so rounding (numpy's and Python's
+    arithmetic differ in the last bits) cannot drop a robot the law would steer, and what
+    :func:`avoid` computes for the robots kept does not depend on the robots left out.
+
+    Args:
+        as :func:`avoid`.
+    """
+    keep = may_bind(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s)
+    if not keep:
+        return None
+    keep = np.array(keep)
+    args = (z, vel, h, rows[keep], pref[keep], v_want[keep], steering, radius_m, v_max, dt_s)
+    return avoid(*args, to_obstacle, lanes)
+
+
+def may_bind(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):
+    """Places in ``rows`` of the robots whose plan (``v_want`` along the heading) leaves the
+    half-plane of a robot within range (:func:`half_plane_one`), in plain Python; a robot
+    not listed has no binding half-plane in :func:`avoid`. Arguments as :func:`avoid`."""
+    m = len(z)
+    if m < 2 or not len(rows):
+        return []
+    reach = orca_range_m(radius_m, v_max) * (1.0 + 1e-9)
+    zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
+    steer, want = steering.tolist(), v_want.tolist()
+    combined = 2.0 * (radius_m + MARGIN_M)
+    tau = (1.0 / TAU_S, 1.0 / dt_s)
+    keep = []
+    for row, j in enumerate(rows.tolist()):
+        zj, vj = zs[j], vs[j]
+        plan = want[row] * hs[j]
+        for k, zk in enumerate(zs):
+            if k == j or abs(zk - zj) >= reach:
+                continue
+            share = 0.5 if steer[k] else 1.0
+            n, c = half_plane_one(zk - zj, vj - vs[k], vj, share, combined, tau)
+            if c - (plan * n.conjugate()).real > 0.0:
+                keep.append(row)
+                break
+    return keep

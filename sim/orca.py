@@ -286,8 +286,19 @@ def avoid(
     idx, mask = table
     keep = mask.any(axis=1)
     rows, idx, mask = rows[keep], idx[keep], mask[keep]
-    pref, v_want = pref[keep], v_want[keep]
-    r_eff = radius_m + MARGIN_M
+    normal, offset = pair_planes(z, vel, rows, idx, mask, steering, radius_m, dt_s)
+    plan = v_want[keep] * h[rows]
+    bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
+    if not bind.any():
+        return None
+    pref = pref[keep][bind]
+    args = (normal[bind], offset[bind], pref, radius_m, v_max, to_obstacle, lanes)
+    return steer_rows(z, h, rows[bind], *args)
+
+
+def pair_planes(z, vel, rows, idx, mask, steering, radius_m: float, dt_s: float):
+    """The half-planes of robots ``rows`` against their neighbours ``idx`` (``mask``: the real
+    ones; the others get a line that never binds), as :func:`half_planes` returns them."""
     zi, vi = z[rows], vel[rows]
     share = np.where(steering[idx], 0.5, 1.0)
     normal, offset = half_planes(
@@ -295,25 +306,26 @@ def avoid(
         vi[:, None] - vel[idx],
         vi[:, None],
         share,
-        2.0 * r_eff,
+        2.0 * (radius_m + MARGIN_M),
         1.0 / TAU_S,
         1.0 / dt_s,
     )
-    normal = np.where(mask, normal, 1.0)
-    offset = np.where(mask, offset, -_BIG)
-    hi = h[rows]
-    plan = v_want * hi
-    bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
-    if not bind.any():
-        return None
-    normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
+    return np.where(mask, normal, 1.0), np.where(mask, offset, -_BIG)
+
+
+def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, lanes=None):
+    """The commands of robots ``rows`` whose plan leaves one of their half-planes (``normal``,
+    ``offset``: (n, K) from :func:`pair_planes`): the obstacle and lane half-planes added,
+    the velocity (:func:`solve`) and the forward speed along the heading (as :func:`avoid`)."""
+    r_eff = radius_m + MARGIN_M
+    hi, zi = h[rows], z[rows]
     pref = pref * KEEP_RIGHT
-    ob = to_obstacle(zi[bind])
+    ob = to_obstacle(zi)
     on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
     normal = np.concatenate([normal, on[:, None]], axis=1)
     offset = np.concatenate([offset, oc[:, None]], axis=1)
     if lanes is not None:
-        left, room_l, room_r = lanes(zi[bind], rows[bind])
+        left, room_l, room_r = lanes(zi, rows)
         real = (np.abs(left) > 0.5) & (room_l + room_r < LANE_NARROW_M)
         real &= np.abs(ob) < radius_m + LANE_NEAR_M  # ... and between walls here, not past them
         lane_n = np.column_stack([np.where(real, -left, 1.0), np.where(real, left, 1.0)])
@@ -326,7 +338,7 @@ def avoid(
     err = np.arctan2(local.imag, local.real)
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
     v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max)
-    return rows[bind], v, err * HEADING_GAIN
+    return rows, v, err * HEADING_GAIN
 
 
 def half_plane_one(rel_p: complex, rel_v: complex, vel_i: complex, share: float, combined_m, tau):
@@ -377,23 +389,84 @@ def avoid_small(
     """:func:`avoid` for a small team: the same commands bit for bit, most periods without it.
 
     For a handful of robots :func:`avoid` costs numpy's overhead per call, several hundred
-    microseconds, and in most periods no half-plane binds. Here every robot of ``rows`` is
-    first looked at in plain Python (:func:`may_bind`), and :func:`avoid` runs on the robots
-    that may bind only, or not at all. The screen keeps a robot whenever its plan leaves one of
-    its half-planes by more than zero, against every robot in range: a margin of 1e-9 over the
-    law's own test and a superset of its neighbours, so rounding (numpy's and Python's
-    arithmetic differ in the last bits) cannot drop a robot the law would steer, and what
-    :func:`avoid` computes for the robots kept does not depend on the robots left out.
+    microseconds, and in most periods no half-plane binds. Here the law's first steps (the
+    nearest robots in range, the half-planes, which of them the plan leaves) are done in plain
+    Python (:func:`binding`), and only the robots whose plan leaves one get their half-planes
+    and commands from numpy (:func:`pair_planes`, :func:`steer_rows`), as :func:`avoid`
+    computes them: numpy's complex arithmetic (fused multiply-add) and Python's differ in the
+    last bits, so the commands themselves must come from numpy. Where rounding could change a
+    decision (two neighbours at the same distance, one at the edge of range, a plan within
+    1e-10 of the law's threshold), :func:`avoid` decides on the robots that may bind.
 
     Args:
         as :func:`avoid`.
     """
-    keep = may_bind(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s)
-    if not keep:
+    m = len(z)
+    k = min(MAX_NEIGHBOURS, m - 1)
+    if k < 1 or not len(rows):
         return None
-    keep = np.array(keep)
-    args = (z, vel, h, rows[keep], pref[keep], v_want[keep], steering, radius_m, v_max, dt_s)
-    return avoid(*args, to_obstacle, lanes)
+    found = binding(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s)
+    if found is None:  # too close to call in Python: the law decides on the robots kept
+        keep = np.array(may_bind(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s))
+        if not len(keep):
+            return None
+        args = (z, vel, h, rows[keep], pref[keep], v_want[keep], steering, radius_m, v_max)
+        return avoid(*args, dt_s, to_obstacle, lanes)
+    if not found:
+        return None
+    idx = np.zeros((len(found), k), dtype=np.intp)
+    mask = np.zeros((len(found), k), dtype=bool)
+    for b, (_, near) in enumerate(found):
+        idx[b, : len(near)] = near
+        mask[b, : len(near)] = True
+    place = np.array([row for row, _ in found])
+    normal, offset = pair_planes(z, vel, rows[place], idx, mask, steering, radius_m, dt_s)
+    args = (normal, offset, pref[place], radius_m, v_max, to_obstacle, lanes)
+    return steer_rows(z, h, rows[place], *args)
+
+
+def binding(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):
+    """:func:`avoid`'s first steps in plain Python: for each robot of ``rows`` whose plan leaves
+    one of the half-planes of its ``MAX_NEIGHBOURS`` nearest robots in range by more than 1e-9,
+    its place in ``rows`` and those neighbours, nearest first; None where rounding could decide
+    (distances within 1e-12 of each other or of the range, a plan within 1e-10 of 1e-9)."""
+    m = len(z)
+    k_max = min(MAX_NEIGHBOURS, m - 1)
+    reach = orca_range_m(radius_m, v_max)
+    edge = reach * 1e-12
+    zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
+    steer, want = steering.tolist(), v_want.tolist()
+    combined = 2.0 * (radius_m + MARGIN_M)
+    tau = (1.0 / TAU_S, 1.0 / dt_s)
+    found = []
+    for row, j in enumerate(rows.tolist()):
+        zj, vj = zs[j], vs[j]
+        near = []
+        for k, zk in enumerate(zs):
+            if k != j:
+                d = abs(zk - zj)
+                if d < reach + edge:
+                    if d > reach - edge:
+                        return None
+                    near.append((d, k))
+        if not near:
+            continue
+        near.sort()  # nearest first, ties by index: the order of neighbour_table
+        for a in range(min(len(near), k_max + 1) - 1):
+            if near[a + 1][0] - near[a][0] <= edge:
+                return None
+        near = near[:k_max]
+        plan = want[row] * hs[j]
+        worst = -np.inf
+        for _, k in near:
+            share = 0.5 if steer[k] else 1.0
+            n, c = half_plane_one(zs[k] - zj, vj - vs[k], vj, share, combined, tau)
+            worst = max(worst, c - (plan * n.conjugate()).real)
+        if abs(worst - 1e-9) <= 1e-10:
+            return None
+        if worst > 1e-9:
+            found.append((row, [k for _, k in near]))
+    return found
 
 
 def may_bind(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):

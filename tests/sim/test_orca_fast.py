@@ -247,3 +247,22 @@ def test_the_screen_skips_exactly_robots_with_no_binding_half_plane(m):
             skipped += r not in keep
             kept += alone is not None
     assert skipped > 50 and kept > 50
+
+
+def test_avoid_small_hands_ties_to_the_law():
+    """Robots on a circle and in a square grid: neighbours at the same distance, where Python's
+    and numpy's rounding could order them differently, are left to ``avoid`` (``binding``
+    returns None) and the commands stay the same bit for bit."""
+    n = 8
+    z = 2.0 * np.exp(2j * np.pi * np.arange(n) / n) + (3 + 3j)
+    grid = (np.arange(9) % 3) + 1j * (np.arange(9) // 3) + (1 + 1j)
+    for pts in (z, grid):
+        m = len(pts)
+        h = np.exp(1j * np.angle((3 + 3j) - pts))
+        vel, rows = 0.8 * h, np.arange(m)
+        steering = np.ones(m, dtype=bool)
+        args = (pts, vel, h, rows, 0.9 * h, np.full(m, 0.9), steering, 0.25, 1.0, 0.1)
+        assert orca.binding(*args[:4], *args[5:]) is None
+        want = avoid_reference(*args, to_obstacle)
+        assert want is not None
+        assert same(orca.avoid_small(*args, to_obstacle), want)

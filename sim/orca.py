@@ -174,8 +174,13 @@ def solve(normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float
     score = np.where(ok[found], np.abs(q[found] - p[found, None]), np.inf)
     u[left[found]] = q[found, score.argmin(axis=1)]
     rest = left[~found]
-    if len(rest):
-        u[rest] = solve_enumerated(normal[rest], offset[rest], pref[rest], v_max, pool=pref)
+    if len(rest):  # each on its own candidates; the call's pool only where none is feasible
+        n, c, p = normal[rest], offset[rest], pref[rest]
+        u[rest] = got = solve_enumerated(n, c, p, v_max, pool=p[:, None])
+        viol = (c - (got[:, None] * n.conj()).real).max(axis=1)
+        none = (viol > 1e-9) | (np.abs(got) > v_max * (1.0 + 1e-9))
+        if none.any():
+            u[rest[none]] = solve_enumerated(n[none], c[none], p[none], v_max, pool=pref)
     return u
 
 
@@ -194,7 +199,8 @@ def solve_enumerated(
 
     Args:
         normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
-            negative); pref: (n,) preferred velocities; pool: (P,) the other rows' ones.
+            negative); pref: (n,) preferred velocities; pool: (P,) the other rows' ones, or
+            (n, 1) for each row its own only.
     """
     n, c = normal, offset
     pool = pref if pool is None else pool

@@ -266,3 +266,15 @@ def test_avoid_small_hands_ties_to_the_law():
         want = avoid_reference(*args, to_obstacle)
         assert want is not None
         assert same(orca.avoid_small(*args, to_obstacle), want)
+
+
+def test_the_bench_times_avoidance_inside_the_loop():
+    """``mrta bench`` reports the cost of avoidance alone (``avoid_bare_ratio``, in bare
+    ``space.step`` times) next to the whole loop's, from the same run."""
+    from scenarios.bench.loop import bench_sim
+
+    on = bench_sim(sizes=(10,), sim_seconds=20.0, avoidance="orca")["10"]
+    off = bench_sim(sizes=(10,), sim_seconds=20.0)["10"]
+    assert 0.0 < on["avoid_bare_ratio"] < on["bare_ratio"]
+    assert 0.0 < on["avoid_share"] < 1.0
+    assert off["avoid_bare_ratio"] == off["avoid_share"] == 0.0

@@ -21,11 +21,14 @@ prefers its velocity turned ``RIGHT_BIAS_DEG`` to the right, a right-hand traffi
 every pair pass the same way round, so the crowd turns as a roundabout instead of jamming
 (``tests/sim/test_orca.py``: 20 robots swap a 5 m circle in under 20 s without a contact).
 
-The programs are small (at most ``MAX_NEIGHBOURS`` + 1 lines) and solved for every robot at once
-by enumeration: the optimum of a convex quadratic over half-planes and a disc is the preferred
-velocity, its projection on one line, the crossing of two lines or a point where a line meets
-the circle; every candidate is checked against every line in one numpy expression. One module,
-one law, called by both control periods (``sim.control``) on the robots near others only.
+The programs are small (at most ``MAX_NEIGHBOURS`` + 3 lines) and solved for every robot at once:
+the optimum of a convex quadratic over half-planes and a disc is the preferred velocity, its
+projection on one line, the crossing of two lines or a point where a line meets the circle.
+:func:`solve` tries the first two kinds and enumerates every candidate (:func:`solve_enumerated`)
+only for the robots left over. One module, one law, called by both control periods
+(``sim.control``) on the robots near others only; for a small team (:func:`avoid_small`) the
+neighbours and the test whether a plan leaves a half-plane run in plain Python first, and the
+commands come from the same numpy code, bit for bit.
 """
 
 from __future__ import annotations

@@ -21,14 +21,19 @@ prefers its velocity turned ``RIGHT_BIAS_DEG`` to the right, a right-hand traffi
 every pair pass the same way round, so the crowd turns as a roundabout instead of jamming
 (``tests/sim/test_orca.py``: 20 robots swap a 5 m circle in under 20 s without a contact).
 
-The programs are small (at most ``MAX_NEIGHBOURS`` + 1 lines) and solved for every robot at once
-by enumeration: the optimum of a convex quadratic over half-planes and a disc is the preferred
-velocity, its projection on one line, the crossing of two lines or a point where a line meets
-the circle; every candidate is checked against every line in one numpy expression. One module,
-one law, called by both control periods (``sim.control``) on the robots near others only.
+The programs are small (at most ``MAX_NEIGHBOURS`` + 3 lines) and solved for every robot at once:
+the optimum of a convex quadratic over half-planes and a disc is the preferred velocity, its
+projection on one line, the crossing of two lines or a point where a line meets the circle.
+:func:`solve` tries the first two kinds and enumerates every candidate (:func:`solve_enumerated`)
+only for the robots left over. One module, one law, called by both control periods
+(``sim.control``) on the robots near others only; for a small team (:func:`avoid_small`) the
+neighbours and the test whether a plan leaves a half-plane run in plain Python first, and the
+commands come from the same numpy code, bit for bit.
 """
 
 from __future__ import annotations
+
+from math import sqrt
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -143,14 +148,68 @@ def solve(normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float
     """Velocity nearest ``pref`` with |u| <= ``v_max`` and n . u >= c for every line, per row;
     where no velocity satisfies every line, the candidate that violates them least.
 
+    The nearest point is unique, so most rows are done before the full enumeration
+    (:func:`solve_enumerated`, which picks the same point): ``pref`` on the speed disc, if it
+    keeps every line; else, for each line j that point breaks, the point of line j inside the
+    disc nearest ``pref`` is the nearest point of half-plane j and the disc, so if it keeps
+    every line it is the answer. Only the rows left over are enumerated.
+
     Args:
         normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
             negative); pref: (n,) preferred velocities.
     """
+    u = pref * np.minimum(1.0, v_max / np.maximum(np.abs(pref), 1e-12))
+    broken = offset - (u[:, None] * normal.conj()).real > 1e-9  # (n, L)
+    left = broken.any(axis=1).nonzero()[0]
+    if not len(left):
+        return u
+    n, c, p, broken = normal[left], offset[left], pref[left], broken[left]
+    q = p[:, None] + (c - (p[:, None] * n.conj()).real) * n  # projections on the lines
+    half = np.sqrt(np.maximum(v_max * v_max - c * c, 0.0))
+    foot = c * n
+    plus, minus = foot + half * 1j * n, foot - half * 1j * n  # where the lines meet the circle
+    lim = v_max * (1.0 + 1e-9)
+    nearer = np.abs(plus - p[:, None]) <= np.abs(minus - p[:, None])
+    q = np.where(np.abs(q) > lim, np.where(nearer, plus, minus), q)  # ... or the chord's end
+    viol = (c[:, None, :] - (q[:, :, None] * n[:, None, :].conj()).real).max(axis=2)
+    ok = broken & (viol <= 1e-9) & (np.abs(q) <= lim)
+    found = ok.any(axis=1)
+    score = np.where(ok[found], np.abs(q[found] - p[found, None]), np.inf)
+    u[left[found]] = q[found, score.argmin(axis=1)]
+    rest = left[~found]
+    if len(rest):  # each on its own candidates; the call's pool only where none is feasible
+        n, c, p = normal[rest], offset[rest], pref[rest]
+        u[rest] = got = solve_enumerated(n, c, p, v_max, pool=p[:, None])
+        viol = (c - (got[:, None] * n.conj()).real).max(axis=1)
+        none = (viol > 1e-9) | (np.abs(got) > v_max * (1.0 + 1e-9))
+        if none.any():
+            u[rest[none]] = solve_enumerated(n[none], c[none], p[none], v_max, pool=pref)
+    return u
+
+
+def solve_enumerated(
+    normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float, pool=None
+) -> np.ndarray:
+    """:func:`solve` by enumeration: every candidate (``pref`` on the speed disc, its
+    projection on each line, the points where a line meets the circle, the crossings of two
+    lines, zero) checked against every line; the nearest feasible one, or where there is none
+    the one that violates the lines least.
+
+    The first candidates of each row are every velocity of ``pool`` (default ``pref``: every
+    row's) scaled as that row's own: so the law has always been computed (``pref`` times a
+    column), and where a row's program is infeasible the least violating candidate can be
+    another robot's preferred velocity. Where it is feasible this changes nothing.
+
+    Args:
+        normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
+            negative); pref: (n,) preferred velocities; pool: (P,) the other rows' ones, or
+            (n, 1) for each row its own only.
+    """
     n, c = normal, offset
+    pool = pref if pool is None else pool
     big = c > -_BIG / 2
     speed = np.abs(pref)
-    cands = [pref * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
+    cands = [pool * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
     along = (pref[:, None] * n.conj()).real
     cands.append(pref[:, None] + (c - along) * n)
     half = np.sqrt(np.maximum(v_max * v_max - c * c, 0.0))
@@ -236,8 +295,19 @@ def avoid(
     idx, mask = table
     keep = mask.any(axis=1)
     rows, idx, mask = rows[keep], idx[keep], mask[keep]
-    pref, v_want = pref[keep], v_want[keep]
-    r_eff = radius_m + MARGIN_M
+    normal, offset = pair_planes(z, vel, rows, idx, mask, steering, radius_m, dt_s)
+    plan = v_want[keep] * h[rows]
+    bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
+    if not bind.any():
+        return None
+    pref = pref[keep][bind]
+    args = (normal[bind], offset[bind], pref, radius_m, v_max, to_obstacle, lanes)
+    return steer_rows(z, h, rows[bind], *args)
+
+
+def pair_planes(z, vel, rows, idx, mask, steering, radius_m: float, dt_s: float):
+    """The half-planes of robots ``rows`` against their neighbours ``idx`` (``mask``: the real
+    ones; the others get a line that never binds), as :func:`half_planes` returns them."""
     zi, vi = z[rows], vel[rows]
     share = np.where(steering[idx], 0.5, 1.0)
     normal, offset = half_planes(
@@ -245,25 +315,26 @@ def avoid(
         vi[:, None] - vel[idx],
         vi[:, None],
         share,
-        2.0 * r_eff,
+        2.0 * (radius_m + MARGIN_M),
         1.0 / TAU_S,
         1.0 / dt_s,
     )
-    normal = np.where(mask, normal, 1.0)
-    offset = np.where(mask, offset, -_BIG)
-    hi = h[rows]
-    plan = v_want * hi
-    bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
-    if not bind.any():
-        return None
-    normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
+    return np.where(mask, normal, 1.0), np.where(mask, offset, -_BIG)
+
+
+def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, lanes=None):
+    """The commands of robots ``rows`` whose plan leaves one of their half-planes (``normal``,
+    ``offset``: (n, K) from :func:`pair_planes`): the obstacle and lane half-planes added,
+    the velocity (:func:`solve`) and the forward speed along the heading (as :func:`avoid`)."""
+    r_eff = radius_m + MARGIN_M
+    hi, zi = h[rows], z[rows]
     pref = pref * KEEP_RIGHT
-    ob = to_obstacle(zi[bind])
+    ob = to_obstacle(zi)
     on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
     normal = np.concatenate([normal, on[:, None]], axis=1)
     offset = np.concatenate([offset, oc[:, None]], axis=1)
     if lanes is not None:
-        left, room_l, room_r = lanes(zi[bind], rows[bind])
+        left, room_l, room_r = lanes(zi, rows)
         real = (np.abs(left) > 0.5) & (room_l + room_r < LANE_NARROW_M)
         real &= np.abs(ob) < radius_m + LANE_NEAR_M  # ... and between walls here, not past them
         lane_n = np.column_stack([np.where(real, -left, 1.0), np.where(real, left, 1.0)])
@@ -276,4 +347,159 @@ def avoid(
     err = np.arctan2(local.imag, local.real)
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
     v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max)
-    return rows[bind], v, err * HEADING_GAIN
+    return rows, v, err * HEADING_GAIN
+
+
+def half_plane_one(rel_p: complex, rel_v: complex, vel_i: complex, share: float, combined_m, tau):
+    """:func:`half_planes` of one pair in Python complex numbers; ``tau`` is the pair
+    ``(1 / horizon, 1 / control period)``."""
+    inv_tau, inv_dt = tau
+    r2 = combined_m * combined_m
+    dist2 = rel_p.real * rel_p.real + rel_p.imag * rel_p.imag
+    w = rel_v - rel_p * inv_tau
+    if dist2 > r2:
+        w2 = w.real * w.real + w.imag * w.imag
+        dot1 = (w * rel_p.conjugate()).real
+        if not (dot1 < 0.0 and dot1 * dot1 > r2 * w2):  # a leg of the cone
+            leg = sqrt(dist2 - r2)
+            if (rel_p.conjugate() * w).imag > 0.0:
+                direction = rel_p * complex(leg, combined_m) / dist2
+            else:
+                direction = -(rel_p * complex(leg, -combined_m)) / dist2
+            u = (rel_v * direction.conjugate()).real * direction - rel_v
+            normal = 1j * direction
+            return normal, ((vel_i + share * u) * normal.conjugate()).real
+        scale = combined_m * inv_tau
+    else:  # inside a collision: the cut-off circle of the control period
+        w = rel_v - rel_p * inv_dt
+        w2 = w.real * w.real + w.imag * w.imag
+        scale = combined_m * inv_dt
+    w_len = sqrt(w2 if w2 > 1e-18 else 1e-18)
+    unit_w = w / w_len
+    u = (scale - w_len) * unit_w
+    normal = unit_w  # 1j * (-1j unit_w)
+    return normal, ((vel_i + share * u) * normal.conjugate()).real
+
+
+def avoid_small(
+    z: np.ndarray,
+    vel: np.ndarray,
+    h: np.ndarray,
+    rows: np.ndarray,
+    pref: np.ndarray,
+    v_want: np.ndarray,
+    steering: np.ndarray,
+    radius_m: float,
+    v_max: float,
+    dt_s: float,
+    to_obstacle,
+    lanes=None,
+):
+    """:func:`avoid` for a small team: the same commands bit for bit, most periods without it.
+
+    For a handful of robots :func:`avoid` costs numpy's overhead per call, several hundred
+    microseconds, and in most periods no half-plane binds. Here the law's first steps (the
+    nearest robots in range, the half-planes, which of them the plan leaves) are done in plain
+    Python (:func:`binding`), and only the robots whose plan leaves one get their half-planes
+    and commands from numpy (:func:`pair_planes`, :func:`steer_rows`), as :func:`avoid`
+    computes them: numpy's complex arithmetic (fused multiply-add) and Python's differ in the
+    last bits, so the commands themselves must come from numpy. Where rounding could change a
+    decision (two neighbours at the same distance, one at the edge of range, a plan within
+    1e-10 of the law's threshold), :func:`avoid` decides on the robots that may bind.
+
+    Args:
+        as :func:`avoid`.
+    """
+    m = len(z)
+    k = min(MAX_NEIGHBOURS, m - 1)
+    if k < 1 or not len(rows):
+        return None
+    found = binding(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s)
+    if found is None:  # too close to call in Python: the law decides on the robots kept
+        keep = np.array(may_bind(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s))
+        if not len(keep):
+            return None
+        args = (z, vel, h, rows[keep], pref[keep], v_want[keep], steering, radius_m, v_max)
+        return avoid(*args, dt_s, to_obstacle, lanes)
+    if not found:
+        return None
+    idx = np.zeros((len(found), k), dtype=np.intp)
+    mask = np.zeros((len(found), k), dtype=bool)
+    for b, (_, near) in enumerate(found):
+        idx[b, : len(near)] = near
+        mask[b, : len(near)] = True
+    place = np.array([row for row, _ in found])
+    normal, offset = pair_planes(z, vel, rows[place], idx, mask, steering, radius_m, dt_s)
+    args = (normal, offset, pref[place], radius_m, v_max, to_obstacle, lanes)
+    return steer_rows(z, h, rows[place], *args)
+
+
+def binding(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):
+    """:func:`avoid`'s first steps in plain Python: for each robot of ``rows`` whose plan leaves
+    one of the half-planes of its ``MAX_NEIGHBOURS`` nearest robots in range by more than 1e-9,
+    its place in ``rows`` and those neighbours, nearest first; None where rounding could decide
+    (distances within 1e-12 of each other or of the range, a plan within 1e-10 of 1e-9)."""
+    m = len(z)
+    k_max = min(MAX_NEIGHBOURS, m - 1)
+    reach = orca_range_m(radius_m, v_max)
+    edge = reach * 1e-12
+    zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
+    steer, want = steering.tolist(), v_want.tolist()
+    combined = 2.0 * (radius_m + MARGIN_M)
+    tau = (1.0 / TAU_S, 1.0 / dt_s)
+    found = []
+    for row, j in enumerate(rows.tolist()):
+        zj, vj = zs[j], vs[j]
+        near = []
+        for k, zk in enumerate(zs):
+            if k != j:
+                d = abs(zk - zj)
+                if d < reach + edge:
+                    if d > reach - edge:
+                        return None
+                    near.append((d, k))
+        if not near:
+            continue
+        near.sort()  # nearest first, ties by index: the order of neighbour_table
+        for a in range(min(len(near), k_max + 1) - 1):
+            if near[a + 1][0] - near[a][0] <= edge:
+                return None
+        near = near[:k_max]
+        plan = want[row] * hs[j]
+        worst = -np.inf
+        for _, k in near:
+            share = 0.5 if steer[k] else 1.0
+            n, c = half_plane_one(zs[k] - zj, vj - vs[k], vj, share, combined, tau)
+            worst = max(worst, c - (plan * n.conjugate()).real)
+        if abs(worst - 1e-9) <= 1e-10:
+            return None
+        if worst > 1e-9:
+            found.append((row, [k for _, k in near]))
+    return found
+
+
+def may_bind(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):
+    """Places in ``rows`` of the robots whose plan (``v_want`` along the heading) leaves the
+    half-plane of a robot within range (:func:`half_plane_one`), in plain Python; a robot
+    not listed has no binding half-plane in :func:`avoid`. Arguments as :func:`avoid`."""
+    m = len(z)
+    if m < 2 or not len(rows):
+        return []
+    reach = orca_range_m(radius_m, v_max) * (1.0 + 1e-9)
+    zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
+    steer, want = steering.tolist(), v_want.tolist()
+    combined = 2.0 * (radius_m + MARGIN_M)
+    tau = (1.0 / TAU_S, 1.0 / dt_s)
+    keep = []
+    for row, j in enumerate(rows.tolist()):
+        zj, vj = zs[j], vs[j]
+        plan = want[row] * hs[j]
+        for k, zk in enumerate(zs):
+            if k == j or abs(zk - zj) >= reach:
+                continue
+            share = 0.5 if steer[k] else 1.0
+            n, c = half_plane_one(zk - zj, vj - vs[k], vj, share, combined, tau)
+            if c - (plan * n.conjugate()).real > 0.0:
+                keep.append(row)
+                break
+    return keep

@@ -156,7 +156,7 @@ class ScalarControl:
         # ---- other robots: ORCA (sim.orca), proximity caps (DiffDriveController.proximity) ----
         orca = ()  # robots whose command ORCA set: the wheels follow it as it is
         if self.parts.avoid and steered:  # (p was reused for a point above)
-            out = steer_clear(self.parts, zn, rob["vel"], hn, np.array(pref), np.array(v), t)
+            out = steer_clear(self.parts, zn, rob["vel"], hn, np.array(pref), np.array(v), t, True)
             if out is not None:
                 orca = set(out[0].tolist())
                 for j, vj, wj in zip(*(a.tolist() for a in out), strict=True):

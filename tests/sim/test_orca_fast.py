@@ -1,0 +1,280 @@
+"""The fast ORCA paths (``sim.orca``: the staged ``solve``, ``avoid_small`` and its screen
+``may_bind``) against the law as it was computed before them, kept here as the reference:
+every candidate enumerated for every row (``solve_reference``) inside the array ``avoid`` of
+commit 5f5188e (``avoid_reference``). Both must give the same commands bit for bit: the golden
+runs with avoidance on (``tests/test_golden.py``) hold them to it too.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim import orca
+from sim.drive_law import COS_TURN, HEADING_GAIN
+from sim.orca import (
+    _BIG,
+    KEEP_RIGHT,
+    LANE_AIR_M,
+    LANE_NARROW_M,
+    LANE_NEAR_M,
+    MARGIN_M,
+    TAU_OBSTACLE_S,
+    TAU_S,
+    WALL_GAP_M,
+    forward_speed,
+    half_planes,
+    neighbour_table,
+    obstacle_plane,
+    orca_range_m,
+)
+
+
+def solve_reference(
+    normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float
+) -> np.ndarray:
+    """Velocity nearest ``pref`` with |u| <= ``v_max`` and n . u >= c for every line, per row;
+    where no velocity satisfies every line, the candidate that violates them least.
+
+    Args:
+        normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
+            negative); pref: (n,) preferred velocities.
+    """
+    n, c = normal, offset
+    big = c > -_BIG / 2
+    speed = np.abs(pref)
+    cands = [pref * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
+    along = (pref[:, None] * n.conj()).real
+    cands.append(pref[:, None] + (c - along) * n)
+    half = np.sqrt(np.maximum(v_max * v_max - c * c, 0.0))
+    foot = c * n
+    cands += [foot + half * 1j * n, foot - half * 1j * n]
+    lines = n.shape[1]
+    if lines > 1:
+        a, b = np.triu_indices(lines, 1)
+        na, nb, ca, cb = n[:, a], n[:, b], c[:, a], c[:, b]
+        det = (na.conj() * nb).imag
+        ok = np.abs(det) > 1e-9
+        det = np.where(ok, det, 1.0)
+        x = (ca * nb.imag - cb * na.imag) / det
+        y = (na.real * cb - nb.real * ca) / det
+        cands.append(np.where(ok & big[:, a] & big[:, b], x + 1j * y, np.nan))
+    cands.append(np.zeros((len(pref), 1), dtype=complex))
+    cand = np.concatenate(cands, axis=1)  # (n, C)
+    cand = np.where(np.isfinite(cand), cand, 0.0)
+    viol = (c[:, None, :] - (cand[:, :, None] * n[:, None, :].conj()).real).max(axis=2)
+    outside = np.abs(cand) > v_max * (1.0 + 1e-9)
+    viol = np.where(outside, np.inf, viol)
+    feasible = viol <= 1e-9
+    score = np.where(feasible, np.abs(cand - pref[:, None]), np.inf)
+    best = np.where(feasible.any(axis=1), score.argmin(axis=1), viol.argmin(axis=1))
+    return cand[np.arange(len(pref)), best]
+
+
+def avoid_reference(
+    z: np.ndarray,
+    vel: np.ndarray,
+    h: np.ndarray,
+    rows: np.ndarray,
+    pref: np.ndarray,
+    v_want: np.ndarray,
+    steering: np.ndarray,
+    radius_m: float,
+    v_max: float,
+    dt_s: float,
+    to_obstacle,
+    lanes=None,
+):
+    """ORCA commands for the robots ``rows`` whose planned velocity leaves an ORCA half-plane.
+
+    Args:
+        z, vel, h: (m,) positions, velocities (x + iy, m and m/s) and unit headings of all
+            robots; rows: (n,) the robots that steer themselves.
+        pref: (n,) their preferred velocities (toward the aim point), m/s.
+        v_want: (n,) the forward speeds their path following asks for, m/s.
+        steering: (m,) bool, robots that avoid too (a reciprocal share of one half).
+        radius_m: robot radius; v_max: top speed; dt_s: the control period.
+        to_obstacle: maps (k,) positions to the nearest obstacle point, x + iy from each.
+        lanes: maps (k,) positions and robot indices to the unit left of each one's path
+            segment and its room left and right within the segment's free width
+            (``PathFollower.lane_room``); where that width is below ``LANE_NARROW_M`` and an
+            obstacle within ``LANE_NEAR_M`` of the body (a single lane, here), two more
+            half-planes keep it inside, less ``LANE_AIR_M``, over ``TAU_OBSTACLE_S``. None:
+            only the nearest obstacle point.
+
+    Returns:
+        None when no half-plane binds; else the robots whose plan is replaced and their
+        (v, omega) commands, before the wheel limits.
+    """
+    reach = orca_range_m(radius_m, v_max)
+    table = neighbour_table(z, rows, reach)
+    if table is None:
+        return None
+    idx, mask = table
+    keep = mask.any(axis=1)
+    rows, idx, mask = rows[keep], idx[keep], mask[keep]
+    pref, v_want = pref[keep], v_want[keep]
+    r_eff = radius_m + MARGIN_M
+    zi, vi = z[rows], vel[rows]
+    share = np.where(steering[idx], 0.5, 1.0)
+    normal, offset = half_planes(
+        z[idx] - zi[:, None],
+        vi[:, None] - vel[idx],
+        vi[:, None],
+        share,
+        2.0 * r_eff,
+        1.0 / TAU_S,
+        1.0 / dt_s,
+    )
+    normal = np.where(mask, normal, 1.0)
+    offset = np.where(mask, offset, -_BIG)
+    hi = h[rows]
+    plan = v_want * hi
+    bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
+    if not bind.any():
+        return None
+    normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
+    pref = pref * KEEP_RIGHT
+    ob = to_obstacle(zi[bind])
+    on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
+    normal = np.concatenate([normal, on[:, None]], axis=1)
+    offset = np.concatenate([offset, oc[:, None]], axis=1)
+    if lanes is not None:
+        left, room_l, room_r = lanes(zi[bind], rows[bind])
+        real = (np.abs(left) > 0.5) & (room_l + room_r < LANE_NARROW_M)
+        real &= np.abs(ob) < radius_m + LANE_NEAR_M  # ... and between walls here, not past them
+        lane_n = np.column_stack([np.where(real, -left, 1.0), np.where(real, left, 1.0)])
+        room = np.column_stack([room_l, room_r]) - LANE_AIR_M
+        lane_c = np.where(real[:, None] & np.isfinite(room), -room / TAU_OBSTACLE_S, -_BIG)
+        normal = np.concatenate([normal, lane_n], axis=1)
+        offset = np.concatenate([offset, lane_c], axis=1)
+    u = solve_reference(normal, offset, pref, v_max)
+    local = u * hi.conj()
+    err = np.arctan2(local.imag, local.real)
+    align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
+    v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max)
+    return rows[bind], v, err * HEADING_GAIN
+
+
+WALLS = np.array([[0.0, 6.0], [6.0, 6.0 + 6.0j], [6.0 + 6.0j, 6.0j], [6.0j, 0.0], [2 + 2j, 3 + 2j]])
+
+
+def to_obstacle(z):
+    """From each point to the nearest point of the walls and a short bar inside them."""
+    e0, d = WALLS[:, 0], WALLS[:, 1] - WALLS[:, 0]
+    t = np.clip(((z[:, None] - e0) * d.conj()).real / (d * d.conj()).real, 0.0, 1.0)
+    near = e0 + t * d - z[:, None]
+    return near[np.arange(len(z)), np.abs(near).argmin(axis=1)]
+
+
+def to_obstacle_one(z):
+    return complex(to_obstacle(np.array([z]))[0])
+
+
+def scene(rng, m, lanes_on=True, crowd_m=6.0):
+    """A random moment of m robots: positions (some overlapping), velocities, headings, who
+    steers, what they prefer and plan, and per-robot lane rooms (some narrow, some infinite)."""
+    z = rng.uniform(0.3, crowd_m - 0.3, m) + 1j * rng.uniform(0.3, crowd_m - 0.3, m)
+    if m > 2:
+        z[1] = z[0] + 0.3 * np.exp(1j * rng.uniform(0, 2 * np.pi))  # a pair in contact
+    h = np.exp(1j * rng.uniform(0, 2 * np.pi, m))
+    speed = rng.uniform(-0.3, 1.0, m) * (rng.random(m) < 0.8)
+    vel = speed * h * np.exp(1j * rng.normal(0, 0.2, m))
+    steering = rng.random(m) < 0.7
+    rows = steering.nonzero()[0]
+    pref = rng.uniform(0, 1.3, len(rows)) * np.exp(1j * rng.uniform(0, 2 * np.pi, len(rows)))
+    v_want = rng.uniform(-0.2, 1.0, len(rows))
+    left = np.exp(1j * rng.uniform(0, 2 * np.pi, m)) * (rng.random(m) < 0.9)
+    room_l, room_r = rng.uniform(-0.05, 0.6, m), rng.uniform(-0.05, 0.6, m)
+    room_l[rng.random(m) < 0.2] = np.inf
+
+    def lanes(pts, idx):
+        return left[idx], room_l[idx], room_r[idx]
+
+    return z, vel, h, rows, pref, v_want, steering, (lanes if lanes_on else None)
+
+
+def same(got, want):
+    """The same robots and the same (v, omega), bit for bit."""
+    if want is None:
+        return got is None
+    return got is not None and all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+
+
+def test_staged_solve_matches_the_enumeration_on_random_programs():
+    rng = np.random.default_rng(11)
+    for lines in (1, 2, 4, 9):
+        n = 4000
+        normal = np.exp(1j * rng.uniform(0, 2 * np.pi, (n, lines)))
+        offset = rng.uniform(-1.2, 0.8, (n, lines))
+        offset[rng.random((n, lines)) < 0.2] = -_BIG  # unused lines
+        pref = rng.uniform(0, 1.5, n) * np.exp(1j * rng.uniform(0, 2 * np.pi, n))
+        want = solve_reference(normal, offset, pref, 1.0)
+        assert np.array_equal(orca.solve(normal, offset, pref, 1.0), want)
+        assert np.array_equal(orca.solve_enumerated(normal, offset, pref, 1.0), want)
+
+
+@pytest.mark.parametrize("m", [2, 3, 10, 24])
+@pytest.mark.parametrize("lanes_on", [True, False])
+def test_avoid_and_avoid_small_match_the_reference_on_random_scenes(m, lanes_on):
+    rng = np.random.default_rng(m + 100 * lanes_on)
+    bound = 0
+    for _ in range(150):
+        z, vel, h, rows, pref, v_want, steering, lanes = scene(rng, m, lanes_on)
+        args = (z, vel, h, rows, pref, v_want, steering, 0.25, 1.0, 0.1, to_obstacle, lanes)
+        want = avoid_reference(*args)
+        assert same(orca.avoid(*args), want)
+        assert same(orca.avoid_small(*args), want)
+        bound += want is not None
+    assert bound > 12  # the scenes do bind
+
+
+@pytest.mark.parametrize("m", [2, 10, 24])
+def test_the_screen_skips_exactly_robots_with_no_binding_half_plane(m):
+    """Every robot ``may_bind`` leaves out has no binding half-plane in the law (the reference
+    on that robot alone returns None), and every robot the law steers is kept."""
+    rng = np.random.default_rng(3 + m)
+    skipped = kept = 0
+    for _ in range(200):
+        z, vel, h, rows, pref, v_want, steering, lanes = scene(rng, m, True, crowd_m=3.0 * m**0.5)
+        args = (0.25, 1.0, 0.1, to_obstacle, lanes)
+        keep = set(orca.may_bind(z, vel, h, rows, v_want, steering, 0.25, 1.0, 0.1))
+        for r in range(len(rows)):
+            one = slice(r, r + 1)
+            alone = avoid_reference(z, vel, h, rows[one], pref[one], v_want[one], steering, *args)
+            assert (alone is not None) <= (r in keep)  # kept whenever the law steers it
+            assert (r in keep) or alone is None
+            skipped += r not in keep
+            kept += alone is not None
+    assert skipped > 50 and kept > 50
+
+
+def test_avoid_small_hands_ties_to_the_law():
+    """Robots on a circle and in a square grid: neighbours at the same distance, where Python's
+    and numpy's rounding could order them differently, are left to ``avoid`` (``binding``
+    returns None) and the commands stay the same bit for bit."""
+    n = 8
+    z = 2.0 * np.exp(2j * np.pi * np.arange(n) / n) + (3 + 3j)
+    grid = (np.arange(9) % 3) + 1j * (np.arange(9) // 3) + (1 + 1j)
+    for pts in (z, grid):
+        m = len(pts)
+        h = np.exp(1j * np.angle((3 + 3j) - pts))
+        vel, rows = 0.8 * h, np.arange(m)
+        steering = np.ones(m, dtype=bool)
+        args = (pts, vel, h, rows, 0.9 * h, np.full(m, 0.9), steering, 0.25, 1.0, 0.1)
+        assert orca.binding(*args[:4], *args[5:]) is None
+        want = avoid_reference(*args, to_obstacle)
+        assert want is not None
+        assert same(orca.avoid_small(*args, to_obstacle), want)
+
+
+def test_the_bench_times_avoidance_inside_the_loop():
+    """``mrta bench`` reports the cost of avoidance alone (``avoid_bare_ratio``, in bare
+    ``space.step`` times) next to the whole loop's, from the same run."""
+    from scenarios.bench.loop import bench_sim
+
+    on = bench_sim(sizes=(10,), sim_seconds=20.0, avoidance="orca")["10"]
+    off = bench_sim(sizes=(10,), sim_seconds=20.0)["10"]
+    assert 0.0 < on["avoid_bare_ratio"] < on["bare_ratio"]
+    assert 0.0 < on["avoid_share"] < 1.0
+    assert off["avoid_bare_ratio"] == off["avoid_share"] == 0.0

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from sim.control.protocol import ControlParts
-from sim.orca import avoid, avoid_small
+from sim.orca import avoid
+from sim.orca_small import avoid_small
 from sim.recording import DRIVING
 
 
@@ -17,7 +18,7 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
         pref: (m,) preferred velocities (``sim.drive_law.preferred_velocity``), m/s.
         v_want: (m,) forward speeds the path following asks for, m/s.
         t: now, s.
-        small: look at each robot in Python first (``sim.orca.avoid_small``, for the scalar
+        small: look at each robot in Python first (``sim.orca_small.avoid_small``, for the scalar
             control period of a small team); the same commands.
 
     Returns:

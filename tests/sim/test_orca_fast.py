@@ -1,8 +1,8 @@
-"""The fast ORCA paths (``sim.orca``: the staged ``solve``, ``avoid_small`` and its screen
-``may_bind``) against the law as it was computed before them, kept here as the reference:
-every candidate enumerated for every row (``solve_reference``) inside the array ``avoid`` of
-commit 5f5188e (``avoid_reference``). Both must give the same commands bit for bit: the golden
-runs with avoidance on (``tests/test_golden.py``) hold them to it too.
+"""The fast ORCA paths (``sim.orca``: the staged ``solve``; ``sim.orca_small``: ``avoid_small``
+and its screen ``may_bind``) against the law as it was computed before them, kept here as the
+reference: every candidate enumerated for every row (``solve_reference``) inside the array
+``avoid`` of commit 5f5188e (``avoid_reference``). Both must give the same commands bit for
+bit: the golden runs with avoidance on (``tests/test_golden.py``) hold them to it too.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim import orca
+from sim import orca, orca_small
 from sim.drive_law import COS_TURN, HEADING_GAIN
 from sim.orca import (
     _BIG,
@@ -224,7 +224,7 @@ def test_avoid_and_avoid_small_match_the_reference_on_random_scenes(m, lanes_on)
         args = (z, vel, h, rows, pref, v_want, steering, 0.25, 1.0, 0.1, to_obstacle, lanes)
         want = avoid_reference(*args)
         assert same(orca.avoid(*args), want)
-        assert same(orca.avoid_small(*args), want)
+        assert same(orca_small.avoid_small(*args), want)
         bound += want is not None
     assert bound > 12  # the scenes do bind
 
@@ -238,7 +238,7 @@ def test_the_screen_skips_exactly_robots_with_no_binding_half_plane(m):
     for _ in range(200):
         z, vel, h, rows, pref, v_want, steering, lanes = scene(rng, m, True, crowd_m=3.0 * m**0.5)
         args = (0.25, 1.0, 0.1, to_obstacle, lanes)
-        keep = set(orca.may_bind(z, vel, h, rows, v_want, steering, 0.25, 1.0, 0.1))
+        keep = set(orca_small.may_bind(z, vel, h, rows, v_want, steering, 0.25, 1.0, 0.1))
         for r in range(len(rows)):
             one = slice(r, r + 1)
             alone = avoid_reference(z, vel, h, rows[one], pref[one], v_want[one], steering, *args)
@@ -262,10 +262,10 @@ def test_avoid_small_hands_ties_to_the_law():
         vel, rows = 0.8 * h, np.arange(m)
         steering = np.ones(m, dtype=bool)
         args = (pts, vel, h, rows, 0.9 * h, np.full(m, 0.9), steering, 0.25, 1.0, 0.1)
-        assert orca.binding(*args[:4], *args[5:]) is None
+        assert orca_small.binding(*args[:4], *args[5:]) is None
         want = avoid_reference(*args, to_obstacle)
         assert want is not None
-        assert same(orca.avoid_small(*args, to_obstacle), want)
+        assert same(orca_small.avoid_small(*args, to_obstacle), want)
 
 
 def test_the_bench_times_avoidance_inside_the_loop():

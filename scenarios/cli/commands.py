@@ -13,6 +13,11 @@ from pathlib import Path
 MIN_SEEDS = 5
 
 
+def avoidance_overrides(args) -> tuple[tuple[str, str], ...]:
+    """The scenario override ``--avoidance`` asks for (none when it was not given)."""
+    return () if args.avoidance is None else (("spatial.avoidance", args.avoidance),)
+
+
 def warn_few_seeds(seeds: list[int]) -> None:
     """One line on stderr when a confidence interval rests on fewer than MIN_SEEDS seeds."""
     if len(seeds) < MIN_SEEDS:
@@ -71,6 +76,7 @@ def cmd_reproduce(args) -> int:
         trace_robot=args.robot,
         progress=not args.no_progress,
         extra_allocators=tuple(args.with_allocators),
+        overrides=avoidance_overrides(args),
     )
     print(
         f"{metrics['scenario']} ({metrics['cost_model']} cost), test-set completion, "
@@ -103,7 +109,13 @@ def cmd_run(args) -> int:
     from scenarios.experiments.metrics import aggregate
     from scenarios.experiments.output import write_json_atomic
     from scenarios.experiments.progress import progress_bar, protocol_rounds
-    from scenarios.experiments.protocol import RunSpec, UserError, execute, load_named
+    from scenarios.experiments.protocol import (
+        RunSpec,
+        UserError,
+        apply_overrides,
+        execute,
+        load_named,
+    )
 
     out = args.out or Path("renders") / "run"
     if args.replay is not None:
@@ -120,12 +132,14 @@ def cmd_run(args) -> int:
             args.allocator,
             args.cost,
             args.seed,
+            avoidance_overrides(args),
             stream_file=str(args.stream) if args.stream else "",
         )
     checkpoint = out / "checkpoint.npz" if (args.checkpoint or args.resume) else None
     if args.resume and not checkpoint.is_file():
         raise UserError(f"{checkpoint}: no checkpoint to resume from (run with --checkpoint first)")
     scenario = load_named(spec.scenario)
+    apply_overrides(scenario, spec.overrides)  # a bad override stops here, before OUT is made
     manifest = build_manifest(scenario, [spec])
     out.mkdir(parents=True, exist_ok=True)
     desc = f"run {spec.allocator} on {scenario.name}"
@@ -178,6 +192,7 @@ def cmd_compare(args) -> int:
         out,
         workers=args.workers,
         progress=not args.no_progress,
+        overrides=avoidance_overrides(args),
     )
     print(f"{doc['scenario']}: mean ± 95% CI over {len(args.seeds)} seeds (test sets)")
     print(markdown_table(doc))
@@ -207,8 +222,7 @@ def cmd_render(args) -> int:
         raise UserError(f"--fps {args.fps}: a GIF plays at most 50 frames per second")
     sets = min(args.sets, sc.stream.n_sets)
     overrides = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
-    if args.avoidance is not None:
-        overrides += (("spatial.avoidance", args.avoidance),)
+    overrides += avoidance_overrides(args)
     for path in (args.gif, args.mp4, args.trajectory):
         if path is not None and not path.parent.is_dir():
             raise UserError(f"{path.parent}: output folder does not exist")
@@ -335,7 +349,7 @@ def cmd_soak(args) -> int:
         args.cost,
         args.seed,
         progress=not (args.json or args.no_progress),
-        faults=args.faults,
+        faults=args.faults + avoidance_overrides(args),
     )
     if args.json:
         print(dumps(result))

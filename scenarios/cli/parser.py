@@ -102,6 +102,18 @@ def _positive_float(text: str) -> float:
     return value
 
 
+AVOIDANCE_HELP = (
+    "collision avoidance of a spatial scenario, overriding its [spatial] avoidance: orca "
+    "(reciprocal avoidance, the default) or none (the proximity law alone; figures before "
+    "avoidance)"
+)
+
+
+def _avoidance_option(parser) -> None:
+    """``--avoidance orca|none``: a spatial run with or without collision avoidance."""
+    parser.add_argument("--avoidance", choices=("orca", "none"), default=None, help=AVOIDANCE_HELP)
+
+
 FAULT_WORDS = {
     "mttf": "faults.mttf_s",
     "repair": "faults.repair_s",
@@ -204,6 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="more allocators beside market, ql and expt, comma-separated: greedy, cbba, an "
         "installed plug-in or module:Class (default none)",
     )
+    _avoidance_option(r)
     r.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
     s = sub.add_parser("stream", help="write a seeded task stream to JSON or CSV for replay")
@@ -250,6 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     run.add_argument("--stream", type=Path, default=None, help="replay a stream file (mrta stream)")
     run.add_argument("--out", type=Path, default=None, help="output folder (default renders/run/)")
+    _avoidance_option(run)
     run.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
     c = sub.add_parser(
         "compare",
@@ -283,6 +297,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", type=Path, default=None, help="output folder (default renders/compare/<scenario>)"
     )
     c.add_argument("--workers", type=_positive_int, default=None, help=WORKERS)
+    _avoidance_option(c)
     c.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
     g = sub.add_parser(
@@ -299,13 +314,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--cost", choices=COSTS, default="distance", help="bid cost model")
     g.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     g.add_argument("--sets", type=_positive_int, default=2, help="task sets to play (default 2)")
-    g.add_argument(
-        "--avoidance",
-        choices=("orca", "none"),
-        default=None,
-        help="collision avoidance, overriding the scenario's [spatial] avoidance "
-        "(default: the scenario's)",
-    )
+    _avoidance_option(g)
     g.add_argument("--gif", type=Path, required=True, help="output GIF path")
     g.add_argument("--mp4", type=Path, default=None, help="also write an MP4 (needs ffmpeg)")
     _gif_options(g, frames=200, fps=20, width=600)
@@ -402,6 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
         "failure per robot, s), repair=S (repair time, s), permanent=P (share of failures "
         "for good), policy=requeue|drop (the broken robot's task); e.g. mttf=600,repair=60",
     )
+    _avoidance_option(k)
     k.add_argument("--json", action="store_true", help="print one JSON object")
     k.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 

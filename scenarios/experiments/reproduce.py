@@ -27,11 +27,13 @@ def reproduce(
     trace_robot: str = "R5",
     progress: bool = True,
     extra_allocators: tuple[str, ...] = (),
+    overrides: tuple[tuple[str, object], ...] = (),
 ) -> dict:
     """Run market, QL-MRTA and ExpT-MRTA (plus the delta_u trade-off) and write all outputs.
 
     ``extra_allocators`` (e.g. ``("greedy", "cbba")`` or ``"mypkg.alloc:Mine"``) are run on the
-    same streams and appear in metrics.json and fig1 beside the paper's three.
+    same streams and appear in metrics.json and fig1 beside the paper's three. ``overrides``
+    (``(("spatial.avoidance", "none"),)``) apply to every run.
     """
     sc = load_named(scenario)
     check_cost(sc, cost)
@@ -40,14 +42,19 @@ def reproduce(
     allocs = list(PAPER_ALLOCATORS) + [a for a in extra_allocators if a not in PAPER_ALLOCATORS]
     specs = [
         RunSpec(
-            scenario, a, cost, s, trace_robot=trace_robot if (a == "expt" and s == seeds[0]) else ""
+            scenario,
+            a,
+            cost,
+            s,
+            overrides,
+            trace_robot=trace_robot if (a == "expt" and s == seeds[0]) else "",
         )
         for a in allocs
         for s in seeds
     ]
     grid = [du for du in delta_u_grid if du != sc.experience.delta_u]
     specs += [
-        RunSpec(scenario, "expt", cost, s, (("experience.delta_u", du),))
+        RunSpec(scenario, "expt", cost, s, (*overrides, ("experience.delta_u", du)))
         for du in grid
         for s in seeds
     ]

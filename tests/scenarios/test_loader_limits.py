@@ -72,7 +72,7 @@ def test_avoidance_words_are_kept():
         assert parse_scenario(d).spatial.avoidance == word
     d = doc()
     d["spatial"].pop("avoidance", None)
-    assert parse_scenario(d).spatial.avoidance == "none"
+    assert parse_scenario(d).spatial.avoidance == "orca"  # on unless a scenario says "none"
 
 
 def test_locate_prefers_an_existing_file_then_the_bundle_then_a_path_shape(tmp_path, monkeypatch):

@@ -154,3 +154,43 @@ def test_run_figure_is_the_task_table():
     }
     assert sum(bars.values()) == pytest.approx(sum(table["distance_m"]))
     assert sum(table["distance_m"]) == pytest.approx(out["spatial"]["distance_m"])
+
+
+def test_avoidance_is_on_by_default_and_the_option_switches_it_off(capsys):
+    """`--avoidance none` gives the proximity law alone (robots touching every minute or so);
+    without the option a spatial run steers with ORCA."""
+    seen = {}
+    for extra in ([], ["--avoidance", "none"], ["--avoidance", "orca"]):
+        argv = ["soak", "--scenario", "paper_spatial", "--tasks", "90", "--cost", "abstract"]
+        assert main([*argv, *extra, "--json"]) == 0
+        seen[tuple(extra)] = json.loads(capsys.readouterr().out)
+    default, none, orca = seen.values()
+    machine = ("wall_s", "rtf", "rss_growth_mib", "rss_peak_mib_at_10pct", "rss_peak_mib_at_100pct")
+    assert default == {**orca, **{k: default[k] for k in machine}}  # the same run
+    assert (
+        none["collisions_robot"] >= 20 and orca["collisions_robot"] * 10 < none["collisions_robot"]
+    )
+
+
+@pytest.mark.parametrize("command", ["run", "compare", "reproduce", "soak", "render"])
+def test_every_spatial_command_takes_avoidance(command):
+    from scenarios.cli.commands import avoidance_overrides
+    from scenarios.cli.parser import build_parser
+
+    head = {"run": ["run", "paper_spatial"], "compare": ["compare", "paper_spatial"]}
+    head.update(render=["render", "paper_spatial", "--gif", "x.gif"], reproduce=["reproduce"])
+    argv = head.get(command, [command])
+    parser = build_parser()
+    assert avoidance_overrides(parser.parse_args(argv)) == ()
+    args = parser.parse_args([*argv, "--avoidance", "none"])
+    assert avoidance_overrides(args) == (("spatial.avoidance", "none"),)
+    with pytest.raises(SystemExit):
+        parser.parse_args([*argv, "--avoidance", "rvo"])
+
+
+def test_avoidance_on_a_scenario_without_space_is_one_line(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["run", "paper", "--avoidance", "none", "--no-progress", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and not out.exists()
+    assert "override 'spatial.avoidance': 'paper' has no [spatial] table" in err

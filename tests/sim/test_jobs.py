@@ -431,7 +431,7 @@ def test_robot_boxed_in_by_one_nearly_done_with_its_work_waits_for_it():
 
 
 def test_robot_blocked_by_one_at_long_work_goes_round_it():
-    w = make_world([(2.0, 5.0), (3.0, 5.0), (8.0, 9.0)])
+    w = make_world([(2.0, 5.0), (3.0, 5.0), (8.0, 9.0)], avoidance="none")  # the proximity law
     f = w.fleet
     give(w, [0], [(12.0, 5.0)])
     t = at(w, 40.0)
@@ -446,7 +446,7 @@ def test_robot_blocked_by_one_at_long_work_goes_round_it():
 
 
 def test_robot_blocked_by_a_driving_one_backs_off_instead_of_going_round():
-    w = make_world([(2.0, 5.0), (3.0, 5.0)], seed=2)
+    w = make_world([(2.0, 5.0), (3.0, 5.0)], seed=2, avoidance="none")
     f = w.fleet
     give(w, [0], [(12.0, 5.0)])
     blocked_pair(w, 0.9 - 1e-6, DRIVING)
@@ -455,7 +455,7 @@ def test_robot_blocked_by_a_driving_one_backs_off_instead_of_going_round():
 
 
 def test_a_robot_farther_than_reach_plus_the_trigger_does_not_block():
-    w = make_world([(2.0, 5.0), (3.0, 5.0)], seed=2)
+    w = make_world([(2.0, 5.0), (3.0, 5.0)], seed=2, avoidance="none")
     f = w.fleet
     give(w, [0], [(12.0, 5.0)])
     blocked_pair(w, REACH + 0.3, IDLE)  # exactly reach + YIELD_TRIGGER_M: not blocking
@@ -581,7 +581,7 @@ def test_robot_whose_site_is_taken_by_a_robot_at_work_waits_for_the_first_to_end
 
 
 def test_without_avoidance_a_taken_site_does_not_make_a_robot_wait():
-    w = make_world([(4.0, 5.0), (10.3, 5.0)], seed=1)
+    w = make_world([(4.0, 5.0), (10.3, 5.0)], seed=1, avoidance="none")
     f = w.fleet
     give(w, [0], [(10.0, 5.0)])
     f.state[1], f.work_end_s[1] = WORKING, 50.0

@@ -85,27 +85,8 @@ def avoid_reference(
     to_obstacle,
     lanes=None,
 ):
-    """ORCA commands for the robots ``rows`` whose planned velocity leaves an ORCA half-plane.
-
-    Args:
-        z, vel, h: (m,) positions, velocities (x + iy, m and m/s) and unit headings of all
-            robots; rows: (n,) the robots that steer themselves.
-        pref: (n,) their preferred velocities (toward the aim point), m/s.
-        v_want: (n,) the forward speeds their path following asks for, m/s.
-        steering: (m,) bool, robots that avoid too (a reciprocal share of one half).
-        radius_m: robot radius; v_max: top speed; dt_s: the control period.
-        to_obstacle: maps (k,) positions to the nearest obstacle point, x + iy from each.
-        lanes: maps (k,) positions and robot indices to the unit left of each one's path
-            segment and its room left and right within the segment's free width
-            (``PathFollower.lane_room``); where that width is below ``LANE_NARROW_M`` and an
-            obstacle within ``LANE_NEAR_M`` of the body (a single lane, here), two more
-            half-planes keep it inside, less ``LANE_AIR_M``, over ``TAU_OBSTACLE_S``. None:
-            only the nearest obstacle point.
-
-    Returns:
-        None when no half-plane binds; else the robots whose plan is replaced and their
-        (v, omega) commands, before the wheel limits.
-    """
+    """``sim.orca.avoid`` of commit 5f5188e, before the staged solve: the oracle. Arguments and
+    result as ``sim.orca.avoid``."""
     reach = orca_range_m(radius_m, v_max)
     table = neighbour_table(z, rows, reach)
     if table is None:

@@ -35,21 +35,32 @@ SITE_WORK_S = 2.0  # work per robot in the ``site`` case, s
 
 
 def swap_world(
-    starts, goals, size_m, control="auto", avoidance="orca", obstacles=()
+    starts,
+    goals,
+    size_m,
+    control="auto",
+    avoidance="orca",
+    obstacles=(),
+    headings_deg=None,
+    drive: DriveSpec = ONE_MPS,
 ) -> PymunkWorld:
-    """Robots at ``starts`` (m, 2), each sent at once to its own goal (one task type per robot,
-    1000 s of work: it stays there), in a ``size_m`` arena with ``obstacles``."""
+    """Robots at ``starts`` (m, 2), facing ``headings_deg`` (default +x), each sent at once to
+    its own goal (one task type per robot, 1000 s of work: it stays there), in a ``size_m``
+    arena with ``obstacles``, driving as ``drive``."""
     n = len(starts)
     sp = SpatialSpec(
         size_m[0],
         size_m[1],
         tuple(obstacles),
         tuple((tuple(map(float, g)),) for g in goals),
-        ONE_MPS,
+        drive,
         arrive_tol_m=0.1,
         avoidance=avoidance,
     )
-    robots = tuple(RobotSpec(f"R{k}", (k,), tuple(map(float, starts[k]))) for k in range(n))
+    heads = [0.0] * n if headings_deg is None else [float(a) for a in headings_deg]
+    robots = tuple(
+        RobotSpec(f"R{k}", (k,), tuple(map(float, starts[k])), heads[k]) for k in range(n)
+    )
     types = tuple(f"T{k}" for k in range(n))
     sc = Scenario("swap", types, robots, ((1.0,) * n,) * n, (1000.0,) * n, spatial=sp)
     world = PymunkWorld(sc, control=control)

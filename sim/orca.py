@@ -320,17 +320,16 @@ def pair_planes(z, vel, rows, idx, mask, steering, radius_m: float, dt_s: float)
     return np.where(mask, normal, 1.0), np.where(mask, offset, -_BIG)
 
 
-def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, lanes=None):
-    """The commands of robots ``rows`` whose plan leaves one of their half-planes (``normal``,
-    ``offset``: (n, K) from :func:`pair_planes`): the obstacle and lane half-planes added,
-    the velocity (:func:`solve`) and the forward speed along the heading (as :func:`avoid`)."""
+def wall_lines(z, rows, radius_m, to_obstacle, lanes=None):
+    """The half-planes that keep robots ``rows`` off the obstacles: the nearest obstacle point
+    (horizon ``TAU_OBSTACLE_S``, air ``WALL_GAP_M``) and, with ``lanes``, the two sides of a
+    single lane (as :func:`avoid` says). (n, 1) or (n, 3) normals and offsets, and the (n,)
+    nearest obstacle points (x + iy from each centre)."""
     r_eff = radius_m + MARGIN_M
-    hi, zi = h[rows], z[rows]
-    pref = pref * KEEP_RIGHT
+    zi = z[rows]
     ob = to_obstacle(zi)
     on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
-    normal = np.concatenate([normal, on[:, None]], axis=1)
-    offset = np.concatenate([offset, oc[:, None]], axis=1)
+    normal, offset = on[:, None], oc[:, None]
     if lanes is not None:
         left, room_l, room_r = lanes(zi, rows)
         real = (np.abs(left) > 0.5) & (room_l + room_r < LANE_NARROW_M)
@@ -340,9 +339,28 @@ def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, l
         lane_c = np.where(real[:, None] & np.isfinite(room), -room / TAU_OBSTACLE_S, -_BIG)
         normal = np.concatenate([normal, lane_n], axis=1)
         offset = np.concatenate([offset, lane_c], axis=1)
+    return normal, offset, ob
+
+
+def command(normal, offset, pref, hi, v_max):
+    """(v, omega) of robots with headings ``hi`` under the half-planes ``normal``, ``offset``:
+    the velocity u nearest ``pref`` (:func:`solve`), the turn toward it and the forward speed
+    along the heading that keeps every half-plane (:func:`forward_speed`)."""
     u = solve(normal, offset, pref, v_max)
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
     v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max)
-    return rows, v, err * HEADING_GAIN
+    return v, err * HEADING_GAIN
+
+
+def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, lanes=None):
+    """The commands of robots ``rows`` whose plan leaves one of their half-planes (``normal``,
+    ``offset``: (n, K) from :func:`pair_planes`): the obstacle and lane half-planes added
+    (:func:`wall_lines`), the velocity (:func:`solve`) and the forward speed along the heading
+    (as :func:`avoid`)."""
+    on, oc, _ = wall_lines(z, rows, radius_m, to_obstacle, lanes)
+    normal = np.concatenate([normal, on], axis=1)
+    offset = np.concatenate([offset, oc], axis=1)
+    v, w = command(normal, offset, pref * KEEP_RIGHT, h[rows], v_max)
+    return rows, v, w

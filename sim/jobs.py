@@ -401,16 +401,20 @@ class Jobs:
 
     def give_way(self, j: int, t: float) -> bool:
         """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot
-        j and the driving robots within ``DEADLOCK_M``, the one with the highest index goes
-        back to ``DEADLOCK_M`` beyond where it was given its task (or there, if that is not
-        free) and only then on to its site, so the others get through; the others wait.
+        j and the driving robots within ``DEADLOCK_M``, the one with the highest index whose
+        way back is free (:meth:`backed_in`; the highest index if none is) goes back to
+        ``DEADLOCK_M`` beyond where it was given its task (or there, if that is not free) and
+        only then on to its site, so the others get through; the others wait. A robot with
+        another right behind it cannot back out: choosing it would leave the jam as it was.
         True if j gave way or waits."""
         f, z = self.fleet, self.fleet.last_z_m
         close = (f.state == DRIVING) & ~self.holding & (np.abs(z - z[j]) < DEADLOCK_M)
         close[j] = False
         if not close.any():
             return False
-        if j < int(close.nonzero()[0].max()):
+        jam = np.append(close.nonzero()[0], j)
+        free = [k for k in jam.tolist() if not self.backed_in(k)]
+        if j != max(free or jam.tolist()):
             f.t_progress_s[j] = t  # the other one gives way: wait for it
             return True
         away = self.origin[j] - z[j]  # back past where it started, by DEADLOCK_M
@@ -427,6 +431,21 @@ class Jobs:
         f.progress_m[j], f.t_progress_s[j] = np.inf, t
         self.refresh()
         return True
+
+    def backed_in(self, j: int) -> bool:
+        """True if another robot stands in robot j's way back toward where it was given its
+        task (:meth:`give_way` sends it there): its centre less than ``DEADLOCK_M`` along that
+        way and less than two radii plus ``SLOT_GAP_M`` to the side of it."""
+        f, r = self.fleet, self.controller.radius_m
+        z = f.last_z_m
+        back = self.origin[j] - z[j]
+        if abs(back) < 1e-9:
+            return False
+        rel = (z - z[j]) * (back / abs(back)).conjugate()  # x along the way back
+        behind = (rel.real > 0.0) & (rel.real < DEADLOCK_M)
+        behind &= np.abs(rel.imag) < 2.0 * r + SLOT_GAP_M
+        behind[j] = False
+        return bool(behind.any())
 
     def take_slots(self, rows: list[int], z: np.ndarray, t: float) -> None:
         """Robots ``rows`` are near their site and not there: where a standing robot takes the

@@ -15,6 +15,12 @@ This replaces Alonso-Mora et al.'s (2010) tracking-error bound by an exact const
 radius is still enlarged by ``MARGIN_M`` for the one control period a command is held while the
 robot turns (an arc, not the straight line ORCA assumes).
 
+Walls: a robot that no robot half-plane binds still has the obstacle lines (the nearest
+obstacle point, and the two sides of a single lane): where its plan leaves one of them,
+:func:`steer_walls` gives it the same two programs over those lines alone, so it slides along a
+wall instead of creeping into it (the law without avoidance lets a robot close on a wall at
+``CREEP_MPS``, and the warehouse's robots touched its shelves about three times an hour each).
+
 Symmetry: when many preferred velocities point at one spot (robots swapping places on a
 circle) plain ORCA slows them all to a standstill there. A robot whose plan leaves a half-plane
 prefers its velocity turned ``RIGHT_BIAS_DEG`` to the right, a right-hand traffic rule that makes
@@ -41,7 +47,7 @@ from sim.drive_law import COS_TURN, HEADING_GAIN
 TAU_S = 1.5  # time horizon toward other robots, s
 TAU_OBSTACLE_S = 0.6  # ... toward walls and obstacles, s
 MARGIN_M = 0.05  # added to the robot radius: a command is held one period while it turns, m
-WALL_GAP_M = 0.05  # ... and this toward walls and obstacles, the air the half-plane keeps, m
+WALL_GAP_M = 0.0  # ... and this toward walls and obstacles, the air the half-plane keeps, m
 LANE_AIR_M = 0.05  # air kept inside the free width of a robot's path segment, m
 LANE_NARROW_M = 1.0  # ... where that free width is narrower than this, m
 LANE_NEAR_M = 0.5  # ... and a wall or obstacle is this close to the robot's body, m
@@ -364,3 +370,30 @@ def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, l
     offset = np.concatenate([offset, oc], axis=1)
     v, w = command(normal, offset, pref * KEEP_RIGHT, h[rows], v_max)
     return rows, v, w
+
+
+def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=None):
+    """Walls as ORCA lines for robots that no robot half-plane binds: of robots ``rows`` (those
+    the path follower finds beyond, or heading out of, their path's free width), the ones whose
+    plan ``v_plan`` along the heading leaves an obstacle or lane half-plane (:func:`wall_lines`)
+    take the velocity nearest their preferred one ``pref`` inside them (sliding along the wall
+    rather than creeping into it) and the forward speed along the heading that keeps them, at
+    most ``|v_plan|`` (the caps toward robots stay). No right-hand bias: it would turn the robot
+    toward the wall it follows.
+
+    Args:
+        z, h: (m,) positions and unit headings; rows: (n,) sorted robot indices.
+        v_plan: (n,) their speed commands so far, m/s; pref: (n,) their preferred velocities.
+
+    Returns:
+        The robots whose command this sets and their (v, omega) commands, before the wheel
+        limits; None when no obstacle half-plane binds.
+    """
+    normal, offset, _ = wall_lines(z, rows, radius_m, to_obstacle, lanes)
+    plan = v_plan * h[rows]
+    bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
+    if not bind.any():
+        return None
+    hi, cap = h[rows[bind]], np.abs(v_plan[bind])
+    v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max)
+    return rows[bind], np.minimum(np.maximum(v, -cap), cap), w

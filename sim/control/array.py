@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.control.avoidance import steer_clear
+from sim.control.avoidance import steer_clear, wall_clear
 from sim.control.protocol import ControlParts
 from sim.drive_law import SPEED_BOUND, next_check_s, preferred_velocity
 from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M
@@ -66,6 +66,13 @@ class ArrayControl:
         if sch.n_backoff:  # backing off blind, without a path: mind the obstacles too
             back = (f.backoff_until_s > t).nonzero()[0]
             rows = back if rows is None else np.union1d(rows, back)
+        if p.avoid and sch.n_steer:  # walls as ORCA lines; the caps for the others
+            out = wall_clear(p, z, h, v, self.pref_, orca, t)
+            if out is not None:
+                sel = out[0]
+                v[sel], w[sel] = out[1], out[2]
+                orca = sel if orca is None else np.union1d(orca, sel)
+                rows = None if rows is None else np.setdiff1d(rows, sel)
         if rows is not None and len(rows):
             self.obstacle_caps(z, hc, v, rows)
         v, w, f.q_cmd_mps = c.limit(v, w, f.v_cmd_mps, f.q_cmd_mps, p.avoid, orca)

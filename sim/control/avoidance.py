@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from sim.control.protocol import ControlParts
-from sim.orca import avoid
+from sim.orca import avoid, steer_walls
 from sim.orca_small import avoid_small
 from sim.recording import DRIVING
 
@@ -34,3 +36,30 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
     fol = parts.follower
     args = (z, vel, h, rows, pref[rows], v_want[rows], steering, c.radius_m, c.v_max_mps)
     return (avoid_small if small else avoid)(*args, c.react_s, fol.to_obstacle, fol.lane_room)
+
+
+def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
+    """Walls as ORCA lines (``sim.orca.steer_walls``) for the robots that steer themselves now
+    and whose command robot-robot ORCA did not set (``orca``: its program had the obstacle
+    lines already).
+
+    Args:
+        z, h: (m,) positions and unit headings.
+        v: (m,) speed commands so far (after the caps toward robots), m/s.
+        pref: (m,) preferred velocities, m/s; orca: indices ORCA set (any collection), or None.
+
+    Returns:
+        None, or the robots whose command this sets and their (v, omega) commands.
+    """
+    f = parts.fleet
+    steering = (f.state == DRIVING) | f.yielding
+    if parts.schedule.n_backoff:
+        steering &= ~(f.backoff_until_s > t)
+    if orca is not None and len(orca):
+        steering[np.array(sorted(orca), dtype=int)] = False
+    rows = steering.nonzero()[0]
+    if not len(rows):
+        return None
+    c, fol = parts.controller, parts.follower
+    args = (c.radius_m, c.v_max_mps, fol.to_obstacle, fol.lane_room)
+    return steer_walls(z, h, rows, np.asarray(v, dtype=float)[rows], pref[rows], *args)

@@ -24,7 +24,7 @@ from math import atan2, cos, sqrt
 
 import numpy as np
 
-from sim.control.avoidance import steer_clear
+from sim.control.avoidance import steer_clear, wall_clear
 from sim.control.protocol import ControlParts
 from sim.drive_law import (
     COS_AHEAD,
@@ -174,6 +174,14 @@ class ScalarControl:
                 side -= (hs[j] * unit_c[j]).imag * (sj * stopping_time_s(sj, react, inv2a))
                 if (side < free0[j] or side > free1[j]) and j not in off:
                     off.append(j)
+        if steered and self.parts.avoid:  # walls as ORCA lines (sim.orca.steer_walls); caps
+            out = wall_clear(self.parts, zn, hn, np.array(v), np.array(pref), orca, t)
+            if out is not None:
+                walled = set(out[0].tolist())
+                for j, vj, wj in zip(*(a.tolist() for a in out), strict=True):
+                    v[j], w[j] = vj, wj
+                orca = set(orca) | walled
+                off = [j for j in off if j not in walled]
         if off or backing:  # beyond the free width, or backing off blind: mind the obstacles
             self.obstacle_caps(zs, hs, v, off + backing)
         # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----

@@ -55,8 +55,9 @@ def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
     steering = (f.state == DRIVING) | f.yielding
     if parts.schedule.n_backoff:
         steering &= ~(f.backoff_until_s > t)
-    if orca is not None and len(orca):
-        steering[np.array(sorted(orca), dtype=int)] = False
+    if orca is not None and len(orca):  # an index array (numpy period) or a set (scalar)
+        done = orca if isinstance(orca, np.ndarray) else np.fromiter(orca, int, len(orca))
+        steering[done] = False
     rows = steering.nonzero()[0]
     if not len(rows):
         return None

@@ -231,22 +231,32 @@ if __name__ == "__main__":
 @contextlib.contextmanager
 def timed_avoidance():
     """Time every collision-avoidance call of both control periods while the block runs
-    (``sim.control.avoidance.steer_clear``, as the two periods hold it); yields a one-item
-    list whose entry is the wall seconds spent in it so far."""
+    (``sim.control.avoidance.steer_clear`` among robots and ``wall_clear`` toward walls, as
+    the two periods hold them); yields a one-item list whose entry is the wall seconds spent
+    in them so far."""
     import sim.control.array as array_period
     import sim.control.scalar as scalar_period
 
-    inner, spent = array_period.steer_clear, [0.0]
+    spent = [0.0]
 
-    def timed(*args, **kwargs):
-        t0 = time.perf_counter()
-        try:
-            return inner(*args, **kwargs)
-        finally:
-            spent[0] += time.perf_counter() - t0
+    def timer(inner):
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                spent[0] += time.perf_counter() - t0
 
-    array_period.steer_clear = scalar_period.steer_clear = timed
+        return timed
+
+    names = ("steer_clear", "wall_clear")
+    inners = [getattr(array_period, name) for name in names]
+    for name, inner in zip(names, inners, strict=True):
+        setattr(array_period, name, timer(inner))
+        setattr(scalar_period, name, getattr(array_period, name))
     try:
         yield spent
     finally:
-        array_period.steer_clear = scalar_period.steer_clear = inner
+        for name, inner in zip(names, inners, strict=True):
+            setattr(array_period, name, inner)
+            setattr(scalar_period, name, inner)

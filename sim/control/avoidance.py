@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim.control.protocol import ControlParts
-from sim.orca import avoid, steer_walls
+from sim.orca import LANE_NEAR_M, MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, avoid, steer_walls
 from sim.orca_small import avoid_small
 from sim.recording import DRIVING
 
@@ -62,5 +62,33 @@ def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
     if not len(rows):
         return None
     c, fol = parts.controller, parts.follower
+    v = np.asarray(v, dtype=float)
+    rows = near_walls(fol, z, rows, v[rows], c.radius_m)
+    if not len(rows):
+        return None
     args = (c.radius_m, c.v_max_mps, fol.to_obstacle, fol.lane_room)
-    return steer_walls(z, h, rows, np.asarray(v, dtype=float)[rows], pref[rows], *args)
+    return steer_walls(z, h, rows, v[rows], pref[rows], *args)
+
+
+def near_walls(fol, z, rows, v, radius_m: float):
+    """Of robots ``rows`` (speed commands ``v``), those whose wall or lane lines could bind:
+    the obstacle line only within radius + ``MARGIN_M`` + ``WALL_GAP_M`` + |v| ``TAU_OBSTACLE_S``
+    of an obstacle (a plan closes on it at |v| at most), the lane lines only within radius +
+    ``LANE_NEAR_M``. A robot's distance to the nearest obstacle is kept with where it was
+    measured (on the follower: the obstacles stand still), so a robot that has not come
+    closer than that reach by the way it has moved since is passed over without a look. The
+    robots dropped could not have bound: the commands are the same as over all ``rows``."""
+    m = len(z)
+    cache = getattr(fol, "wall_seen_", None)
+    if cache is None or len(cache[0]) != m:
+        cache = fol.wall_seen_ = (np.zeros(m, dtype=complex), np.full(m, -np.inf))
+    seen_z, seen_m = cache
+    reach = np.abs(v) * TAU_OBSTACLE_S + (radius_m + MARGIN_M + WALL_GAP_M)
+    reach = np.maximum(reach, radius_m + LANE_NEAR_M) + 1e-6
+    near = seen_m[rows] - np.abs(z[rows] - seen_z[rows]) < reach
+    look = rows[near]
+    if len(look):
+        dist = np.abs(fol.to_obstacle(z[look]))
+        seen_z[look], seen_m[look] = z[look], dist
+        near[near] = dist < reach[near]
+    return rows[near]

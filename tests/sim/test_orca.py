@@ -284,3 +284,39 @@ def test_a_jam_in_a_single_lane_gap_is_broken_by_the_robot_whose_way_back_is_fre
     assert t <= world.spatial.stuck_timeout_s + 25.0
     assert world.jobs.failures == 0
     assert world.contacts.robot_hits == world.contacts.wall_hits == 0
+
+
+def test_the_wall_screen_drops_only_robots_whose_lines_cannot_bind():
+    """``near_walls`` passes over robots far from every obstacle, using the distance it last
+    measured less the way the robot moved since. Over 40 periods of 300 robots wandering among
+    boxes, at random speeds, the commands from the screened robots equal, bit for bit, those
+    from every robot, and the screen drops most of them."""
+    from sim.control.avoidance import near_walls
+    from sim.orca import steer_walls
+    from sim.paths import PathFollower
+
+    rng = np.random.default_rng(7)
+    boxes = [
+        ((x, y), (x + 1.0, y), (x + 1.0, y + 1.0), (x, y + 1.0))
+        for x, y in [(3, 3), (12, 8), (6, 14)]
+    ]
+    fol = PathFollower(300, 1.5, boxes, 0.25)
+    z = rng.uniform(0.5, 19.5, 300) + 1j * rng.uniform(0.5, 19.5, 300)
+    rows = np.arange(300)
+    dropped = 0
+    for _ in range(40):
+        z = z + (rng.normal(0.0, 0.1, 300) + 1j * rng.normal(0.0, 0.1, 300))
+        h = np.exp(1j * rng.uniform(-np.pi, np.pi, 300))
+        v = rng.uniform(-0.3, 1.5, 300)
+        pref = 1.5 * np.exp(1j * rng.uniform(-np.pi, np.pi, 300))
+        args = (0.25, 1.5, fol.to_obstacle)
+        every = steer_walls(z, h, rows, v, pref, *args)
+        kept = near_walls(fol, z, rows, v, 0.25)
+        dropped += 300 - len(kept)
+        screened = steer_walls(z, h, kept, v[kept], pref[kept], *args) if len(kept) else None
+        if every is None:
+            assert screened is None
+        else:
+            for a, b in zip(every, screened, strict=True):
+                assert np.array_equal(a, b)
+    assert dropped > 40 * 150

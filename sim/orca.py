@@ -329,8 +329,7 @@ def pair_planes(z, vel, rows, idx, mask, steering, radius_m: float, dt_s: float)
 def wall_lines(z, rows, radius_m, to_obstacle, lanes=None):
     """The half-planes that keep robots ``rows`` off the obstacles: the nearest obstacle point
     (horizon ``TAU_OBSTACLE_S``, air ``WALL_GAP_M``) and, with ``lanes``, the two sides of a
-    single lane (as :func:`avoid` says). (n, 1) or (n, 3) normals and offsets, and the (n,)
-    nearest obstacle points (x + iy from each centre)."""
+    single lane (as :func:`avoid` says): (n, 1) or (n, 3) normals and offsets."""
     r_eff = radius_m + MARGIN_M
     zi = z[rows]
     ob = to_obstacle(zi)
@@ -345,7 +344,7 @@ def wall_lines(z, rows, radius_m, to_obstacle, lanes=None):
         lane_c = np.where(real[:, None] & np.isfinite(room), -room / TAU_OBSTACLE_S, -_BIG)
         normal = np.concatenate([normal, lane_n], axis=1)
         offset = np.concatenate([offset, lane_c], axis=1)
-    return normal, offset, ob
+    return normal, offset
 
 
 def command(normal, offset, pref, hi, v_max):
@@ -365,7 +364,7 @@ def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, l
     ``offset``: (n, K) from :func:`pair_planes`): the obstacle and lane half-planes added
     (:func:`wall_lines`), the velocity (:func:`solve`) and the forward speed along the heading
     (as :func:`avoid`)."""
-    on, oc, _ = wall_lines(z, rows, radius_m, to_obstacle, lanes)
+    on, oc = wall_lines(z, rows, radius_m, to_obstacle, lanes)
     normal = np.concatenate([normal, on], axis=1)
     offset = np.concatenate([offset, oc], axis=1)
     v, w = command(normal, offset, pref * KEEP_RIGHT, h[rows], v_max)
@@ -374,12 +373,12 @@ def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, l
 
 def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=None):
     """Walls as ORCA lines for robots that no robot half-plane binds: of robots ``rows`` (those
-    the path follower finds beyond, or heading out of, their path's free width), the ones whose
-    plan ``v_plan`` along the heading leaves an obstacle or lane half-plane (:func:`wall_lines`)
-    take the velocity nearest their preferred one ``pref`` inside them (sliding along the wall
-    rather than creeping into it) and the forward speed along the heading that keeps them, at
-    most ``|v_plan|`` (the caps toward robots stay). No right-hand bias: it would turn the robot
-    toward the wall it follows.
+    that steer themselves and could be within reach of a wall, ``sim.control.avoidance``), the
+    ones whose plan ``v_plan`` along the heading leaves an obstacle or lane half-plane
+    (:func:`wall_lines`) take the velocity nearest their preferred one ``pref`` inside them
+    (sliding along the wall rather than creeping into it) and the forward speed along the
+    heading that keeps them, at most ``|v_plan|`` (the caps toward robots stay). No right-hand
+    bias: it would turn the robot toward the wall it follows.
 
     Args:
         z, h: (m,) positions and unit headings; rows: (n,) sorted robot indices.
@@ -389,7 +388,7 @@ def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=No
         The robots whose command this sets and their (v, omega) commands, before the wheel
         limits; None when no obstacle half-plane binds.
     """
-    normal, offset, _ = wall_lines(z, rows, radius_m, to_obstacle, lanes)
+    normal, offset = wall_lines(z, rows, radius_m, to_obstacle, lanes)
     plan = v_plan * h[rows]
     bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
     if not bind.any():

@@ -87,13 +87,15 @@ def bench_sim(
     Returns:
         ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s",
         "bare10_steps_per_s", "contact_share", "bids_ms", "avoid_share", "avoid_bare_ratio",
-        ...}}``: physics steps of the full loop per wall second, simulated / wall seconds,
-        full-loop time per step over bare ``space.step`` time per step, the bare loop's steps
-        per second (as the world sets the space, and with ten solver iterations throughout),
+        "sites_share", "sites_bare_ratio", ...}}``: physics steps of the full loop per wall
+        second, simulated / wall seconds, full-loop time per step over bare ``space.step``
+        time per step, the bare loop's steps per second (as the world sets the space, and
+        with ten solver iterations throughout),
         the share of loop steps with a contact touching, and the milliseconds the
         planned-distance bids of every robot on 7 tasks take (:func:`_bids_ms`); the share of
         the loop's time spent in collision avoidance (``sim.orca``) and that time per step
-        over the bare step. If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
+        over the bare step, and the same for the site work only avoidance brings
+        (:func:`timed_sites`). If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
         ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; if the
         planner built its distance field, :func:`field_report`.
     """
@@ -119,7 +121,7 @@ def bench_sim(
         _run(world, min(warm_s, sim_s), rng, allocate)
         touching0 = world.contacts.steps_touching
         counts0 = dict(getattr(allocate, "timings_", {}))
-        with timed_avoidance() as avoid_s:
+        with timed_avoidance() as avoid_s, timed_sites() as sites_s:
             steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
@@ -141,6 +143,8 @@ def bench_sim(
             "bids_ms": bids_ms,
             "avoid_share": avoid_s[0] / wall,
             "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
+            "sites_share": sites_s[0] / wall,
+            "sites_bare_ratio": (sites_s[0] / steps) / bare,
         }
         if counts.get("rounds"):
             rounds = counts["rounds"]
@@ -260,3 +264,38 @@ def timed_avoidance():
         for name, inner in zip(names, inners, strict=True):
             setattr(array_period, name, inner)
             setattr(scalar_period, name, inner)
+
+
+@contextlib.contextmanager
+def timed_sites():
+    """Time the site work that exists only with collision avoidance on (``sim.jobs.Jobs``:
+    site queues, service slots and robots driving clear of a service point: ``queue``,
+    ``take_slots``, ``leave``) while the block runs; yields a one-item list whose entry is the
+    wall seconds spent in them so far (a call inside another timed one is counted once)."""
+    from sim.jobs import Jobs
+
+    spent, depth = [0.0], [0]
+    names = ("queue", "take_slots", "leave")
+    inners = [Jobs.__dict__[name] for name in names]
+
+    def timer(inner):
+        def timed(*args, **kwargs):
+            if depth[0]:
+                return inner(*args, **kwargs)
+            depth[0] += 1
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                spent[0] += time.perf_counter() - t0
+                depth[0] -= 1
+
+        return timed
+
+    for name, inner in zip(names, inners, strict=True):
+        setattr(Jobs, name, timer(inner))
+    try:
+        yield spent
+    finally:
+        for name, inner in zip(names, inners, strict=True):
+            setattr(Jobs, name, inner)

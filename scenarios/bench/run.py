@@ -77,12 +77,14 @@ def bench_paper_loop(
     bodies afterwards.
 
     Returns:
-        ``{"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s"}``.
+        ``{"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s",
+        "avoid_share", "avoid_bare_ratio", "sites_share", "sites_bare_ratio"}`` (the last four
+        as :func:`scenarios.bench.loop.bench_sim` says).
     """
     import time
 
     from learning.episode import run_protocol
-    from scenarios.bench.loop import bare_step_time, timed_avoidance
+    from scenarios.bench.loop import bare_step_time, timed_avoidance, timed_sites
     from scenarios.protocol import RunSpec, build_run
     from sim.recording import TrajectoryRecorder
 
@@ -94,7 +96,7 @@ def bench_paper_loop(
     world.recorder = recorder
     steps0 = world.steps_
     t0 = time.perf_counter()
-    with timed_avoidance() as avoid_s:
+    with timed_avoidance() as avoid_s, timed_sites() as sites_s:
         run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
     wall = time.perf_counter() - t0
     steps = world.steps_ - steps0
@@ -108,6 +110,8 @@ def bench_paper_loop(
         "wall_s": wall,
         "avoid_share": avoid_s[0] / wall,
         "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
+        "sites_share": sites_s[0] / wall,
+        "sites_bare_ratio": (sites_s[0] / steps) / bare,
     }
 
 
@@ -179,6 +183,7 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
                 f"  {n:>5} robots: {r['steps_per_s']:>9,.0f} steps/s  {r['rtf']:>7,.0f}x real time "
                 f" loop/bare = {r['bare_ratio']:.2f} (without avoidance {base:.2f})  "
                 f"avoidance/bare = {r['avoid_bare_ratio']:.2f} ({r['avoid_share']:.0%} of the loop)"
+                f"  site queues/bare = {r['sites_bare_ratio']:.2f} ({r['sites_share']:.0%})"
             )
     if "gif" in parts:
         from scenarios.bench.gif import bench_gif

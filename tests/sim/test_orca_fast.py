@@ -251,7 +251,8 @@ def test_avoid_small_hands_ties_to_the_law():
 
 def test_the_bench_times_avoidance_inside_the_loop():
     """``mrta bench`` reports the cost of avoidance alone (``avoid_bare_ratio``, in bare
-    ``space.step`` times) next to the whole loop's, from the same run."""
+    ``space.step`` times) and of the site queues it brings (``sites_bare_ratio``) next to the
+    whole loop's, from the same run."""
     from scenarios.bench.loop import bench_sim
 
     on = bench_sim(sizes=(10,), sim_seconds=20.0, avoidance="orca")["10"]
@@ -259,3 +260,6 @@ def test_the_bench_times_avoidance_inside_the_loop():
     assert 0.0 < on["avoid_bare_ratio"] < on["bare_ratio"]
     assert 0.0 < on["avoid_share"] < 1.0
     assert off["avoid_bare_ratio"] == off["avoid_share"] == 0.0
+    # site queues and service slots exist only with avoidance; their time is apart from it
+    assert 0.0 < on["sites_share"] < 1.0 - on["avoid_share"]
+    assert off["sites_bare_ratio"] == off["sites_share"] == 0.0

@@ -26,7 +26,7 @@ from dataclasses import fields
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.orca import AVOIDANCE
+from sim.control.orca import AVOIDANCE
 from sim.planning import GridPlanner, polygon_signed_distance
 from sim.scenario import DriveSpec, RobotSpec, SpatialSpec
 

@@ -284,8 +284,9 @@ class DiffDriveController:
             omega_radps: (m,) desired turn rate.
             v0, q0: (m,) v and q commanded in the last period, m/s.
             turn_first: slow a fast turn first (above).
-            orca: indices of the robots whose command collision avoidance set (``sim.orca``):
-                no turn first for them, their wheels follow the velocity ORCA chose.
+            orca: indices of the robots whose command collision avoidance set
+                (``sim.control.orca``): no turn first for them, their wheels follow the velocity
+                ORCA chose.
 
         Returns:
             (v, omega, q) actually commanded.

@@ -105,7 +105,9 @@ class SpatialSpec:
     clearance_m: float = 0.1  # planned paths keep this much space beyond the robot radius
     max_recoveries: int = 3  # back-off-and-replan attempts before a task is reported failed
     collision_slop_m: float = 0.005  # pymunk's allowed overlap, in metres
-    avoidance: str = "orca"  # reciprocal collision avoidance (sim.orca); "none": proximity law
+    avoidance: str = (
+        "orca"  # reciprocal collision avoidance (sim.control.orca); "none": proximity law
+    )
 
 
 FAULT_POLICIES = ("requeue", "drop")

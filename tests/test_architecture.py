@@ -356,7 +356,7 @@ def test_checker_fails_on_matplotlib_in_physics_at_import_time():
 
 def test_no_environment_variable_changes_behaviour():
     """A run depends on its spec only: no package module reads the environment (an experiment
-    switch left in ``sim/orca.py`` once did)."""
+    switch left in ``sim/control/orca.py`` once did)."""
     offenders = []
     for pkg in ("sim", "allocation", "learning"):
         for path in sorted((ROOT / pkg).rglob("*.py")):

@@ -93,7 +93,7 @@ def bench_sim(
         with ten solver iterations throughout),
         the share of loop steps with a contact touching, and the milliseconds the
         planned-distance bids of every robot on 7 tasks take (:func:`_bids_ms`); the share of
-        the loop's time spent in collision avoidance (``sim.orca``) and that time per step
+        the loop's time spent in collision avoidance (``sim.control.orca``) and that time per step
         over the bare step, and the same for the site work only avoidance brings
         (:func:`timed_sites`). If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
         ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; if the

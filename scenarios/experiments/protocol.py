@@ -39,7 +39,7 @@ from scenarios.experiments.metrics import (
 )
 from scenarios.loader import load_scenario
 from sim import make_world
-from sim.orca import AVOIDANCE
+from sim.control.orca import AVOIDANCE
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
 

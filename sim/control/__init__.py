@@ -1,7 +1,9 @@
 """The control period of the pymunk world, twice: over numpy arrays and robot by robot.
 
 ``protocol`` says what a control period is and what it works on, ``array`` and ``scalar`` are
-its two implementations, ``registry`` names them and makes the ``"auto"`` choice.
+its two implementations, ``registry`` names them and makes the ``"auto"`` choice. Collision
+avoidance lives here too: ``orca`` (the law over numpy arrays), ``orca_small`` (its first steps
+in plain Python for a small team) and ``avoidance`` (the one call both periods make).
 """
 
 from sim.control.array import ArrayControl

@@ -1,12 +1,13 @@
-"""ORCA in a control period: the same call from both implementations (``sim.orca``)."""
+"""ORCA in a control period: the same call from both implementations (``sim.control.orca``;
+``sim.control.orca_small`` for the scalar period)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from sim.control.orca import LANE_NEAR_M, MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, avoid, steer_walls
+from sim.control.orca_small import avoid_small
 from sim.control.protocol import ControlParts
-from sim.orca import LANE_NEAR_M, MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, avoid, steer_walls
-from sim.orca_small import avoid_small
 from sim.recording import DRIVING
 
 
@@ -20,8 +21,8 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
         pref: (m,) preferred velocities (``sim.drive_law.preferred_velocity``), m/s.
         v_want: (m,) forward speeds the path following asks for, m/s.
         t: now, s.
-        small: look at each robot in Python first (``sim.orca_small.avoid_small``, for the scalar
-            control period of a small team); the same commands.
+        small: look at each robot in Python first (``sim.control.orca_small.avoid_small``,
+            for the scalar control period of a small team); the same commands.
 
     Returns:
         None, or the robots whose plan ORCA replaces and their (v, omega) commands.
@@ -39,9 +40,9 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
 
 
 def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
-    """Walls as ORCA lines (``sim.orca.steer_walls``) for the robots that steer themselves now
-    and whose command robot-robot ORCA did not set (``orca``: its program had the obstacle
-    lines already).
+    """Walls as ORCA lines (``sim.control.orca.steer_walls``) for the robots that steer
+    themselves now and whose command robot-robot ORCA did not set (``orca``: its program had
+    the obstacle lines already).
 
     Args:
         z, h: (m,) positions and unit headings.

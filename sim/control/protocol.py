@@ -33,7 +33,7 @@ class ControlParts:
         controller: the drive limits and the law over arrays.
         arrive_tol_m: a robot this close to its site has arrived, m.
         reach_m: robot centres closer than this are touching, m.
-        avoid: steer with ORCA (``sim.orca``) and without keep-right (``[spatial]
+        avoid: steer with ORCA (``sim.control.orca``) and without keep-right (``[spatial]
             avoidance = "orca"``); False: today's proximity law alone.
     """
 

@@ -153,7 +153,7 @@ class ScalarControl:
         for j in backing:
             v[j], w[j] = f.backoff_cmd[j].tolist()
         jobs.end_due(t)
-        # ---- other robots: ORCA (sim.orca), proximity caps (DiffDriveController.proximity) ----
+        # ---- other robots: ORCA (sim.control.orca), proximity caps (controller.proximity) ----
         orca = ()  # robots whose command ORCA set: the wheels follow it as it is
         if self.parts.avoid and steered:  # (p was reused for a point above)
             out = steer_clear(self.parts, zn, rob["vel"], hn, np.array(pref), np.array(v), t, True)
@@ -174,7 +174,7 @@ class ScalarControl:
                 side -= (hs[j] * unit_c[j]).imag * (sj * stopping_time_s(sj, react, inv2a))
                 if (side < free0[j] or side > free1[j]) and j not in off:
                     off.append(j)
-        if steered and self.parts.avoid:  # walls as ORCA lines (sim.orca.steer_walls); caps
+        if steered and self.parts.avoid:  # walls as ORCA lines (sim.control.orca.steer_walls); caps
             out = wall_clear(self.parts, zn, hn, np.array(v), np.array(pref), orca, t)
             if out is not None:
                 walled = set(out[0].tolist())

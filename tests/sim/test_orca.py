@@ -1,5 +1,5 @@
-"""ORCA (sim.orca): the small programs against brute force, and the classic hard cases in the
-pymunk world with our physics and wheel limits.
+"""ORCA (sim.control.orca): the small programs against brute force, and the classic hard cases
+in the pymunk world with our physics and wheel limits.
 
 Reference for the circle swap (SPEC §7): IR-SIM 2.12's RVO behaviour with its example parameters
 (radius 0.25 m on a 5 m circle, 1 m/s top speed, 60 Hz) brings 10 robots across in 17.8 s and 20
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
+from sim.control.orca import forward_speed, half_planes, solve
 from sim.hardcases import circle, swap_world, time_to_all_arrive
-from sim.orca import forward_speed, half_planes, solve
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])
@@ -171,7 +171,7 @@ def test_in_a_narrow_lane_orca_keeps_the_velocity_inside_the_free_width(monkeypa
     lane's half-planes the chosen velocity moves right at most (0.06 - LANE_AIR_M) /
     TAU_OBSTACLE_S; without them, in a lane wider than LANE_NARROW_M or with no wall within
     LANE_NEAR_M of the body, they do not apply."""
-    from sim import orca
+    from sim.control import orca
 
     got = []
     inner = orca.solve
@@ -210,7 +210,7 @@ def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it(
     velocity in the half-plane (here: backing away, at most BACK_SHARE of the top speed) and it
     turns toward the velocity nearest its preferred one, along the wall, away from it. Heading
     along the wall at 0.5 m from it, nothing binds: None (its plan stays)."""
-    from sim.orca import BACK_SHARE, MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, steer_walls
+    from sim.control.orca import BACK_SHARE, MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, steer_walls
 
     radius, dist = 0.25, 0.32
     wall = lambda pts: np.full(len(pts), -1j * dist)  # noqa: E731  a wall below each robot
@@ -292,7 +292,7 @@ def test_the_wall_screen_drops_only_robots_whose_lines_cannot_bind():
     boxes, at random speeds, the commands from the screened robots equal, bit for bit, those
     from every robot, and the screen drops most of them."""
     from sim.control.avoidance import near_walls
-    from sim.orca import steer_walls
+    from sim.control.orca import steer_walls
     from sim.paths import PathFollower
 
     rng = np.random.default_rng(7)

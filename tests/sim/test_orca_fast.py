@@ -1,8 +1,9 @@
-"""The fast ORCA paths (``sim.orca``: the staged ``solve``; ``sim.orca_small``: ``avoid_small``
-and its screen ``may_bind``) against the law as it was computed before them, kept here as the
-reference: every candidate enumerated for every row (``solve_reference``) inside the array
-``avoid`` of commit 5f5188e (``avoid_reference``). Both must give the same commands bit for
-bit: the golden runs with avoidance on (``tests/test_golden.py``) hold them to it too.
+"""The fast ORCA paths (``sim.control.orca``: the staged ``solve``; ``sim.control.orca_small``:
+``avoid_small`` and its screen ``may_bind``) against the law as it was computed before them,
+kept here as the reference: every candidate enumerated for every row (``solve_reference``)
+inside the array ``avoid`` of commit 5f5188e (``avoid_reference``). Both must give the same
+commands bit for bit: the golden runs with avoidance on (``tests/test_golden.py``) hold them to
+it too.
 """
 
 from __future__ import annotations
@@ -10,9 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim import orca, orca_small
-from sim.drive_law import COS_TURN, HEADING_GAIN
-from sim.orca import (
+from sim.control import orca, orca_small
+from sim.control.orca import (
     _BIG,
     KEEP_RIGHT,
     LANE_AIR_M,
@@ -28,6 +28,7 @@ from sim.orca import (
     obstacle_plane,
     orca_range_m,
 )
+from sim.drive_law import COS_TURN, HEADING_GAIN
 
 
 def solve_reference(
@@ -85,8 +86,8 @@ def avoid_reference(
     to_obstacle,
     lanes=None,
 ):
-    """``sim.orca.avoid`` of commit 5f5188e, before the staged solve: the oracle. Arguments and
-    result as ``sim.orca.avoid``."""
+    """``sim.control.orca.avoid`` of commit 5f5188e (then ``sim.orca.avoid``), before the
+    staged solve: the oracle. Arguments and result as ``sim.control.orca.avoid``."""
     reach = orca_range_m(radius_m, v_max)
     table = neighbour_table(z, rows, reach)
     if table is None:

@@ -33,8 +33,9 @@ projection on one line, the crossing of two lines or a point where a line meets 
 :func:`solve` tries the first two kinds and enumerates every candidate (:func:`solve_enumerated`)
 only for the robots left over. One module, one law, called by both control periods
 (``sim.control``) on the robots near others only; for a small team
-(``sim.orca_small.avoid_small``) the neighbours and the test whether a plan leaves a half-plane
-run in plain Python first, and the commands come from the same numpy code, bit for bit.
+(``sim.control.orca_small.avoid_small``) the neighbours and the test whether a plan leaves a
+half-plane run in plain Python first, and the commands come from the same numpy code, bit for
+bit.
 """
 
 from __future__ import annotations

@@ -1,11 +1,11 @@
-"""ORCA for a small team (``sim.orca`` for the scalar control period): the same commands as
-:func:`sim.orca.avoid`, bit for bit, with most periods never reaching numpy.
+"""ORCA for a small team (``sim.control.orca`` for the scalar control period): the same
+commands as :func:`sim.control.orca.avoid`, bit for bit, with most periods never reaching numpy.
 
 For a handful of robots numpy's overhead per call, not arithmetic, is the cost of the law. Its
 first steps (the nearest robots in range, their half-planes, whether the plan leaves one) run
-here in plain Python; the commands of the robots whose plan does come from ``sim.orca``'s numpy
-code, because numpy's complex arithmetic (fused multiply-add) and Python's differ in the last
-bits. ``tests/sim/test_orca_fast.py`` holds the parity.
+here in plain Python; the commands of the robots whose plan does come from
+``sim.control.orca``'s numpy code, because numpy's complex arithmetic (fused multiply-add)
+and Python's differ in the last bits. ``tests/sim/test_orca_fast.py`` holds the parity.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from math import sqrt
 
 import numpy as np
 
-from sim.orca import (
+from sim.control.orca import (
     MARGIN_M,
     MAX_NEIGHBOURS,
     TAU_S,
@@ -26,8 +26,8 @@ from sim.orca import (
 
 
 def half_plane_one(rel_p: complex, rel_v: complex, vel_i: complex, share: float, combined_m, tau):
-    """:func:`sim.orca.half_planes` of one pair in Python complex numbers; ``tau`` is the pair
-    ``(1 / horizon, 1 / control period)``."""
+    """:func:`sim.control.orca.half_planes` of one pair in Python complex numbers; ``tau`` is
+    the pair ``(1 / horizon, 1 / control period)``."""
     inv_tau, inv_dt = tau
     r2 = combined_m * combined_m
     dist2 = rel_p.real * rel_p.real + rel_p.imag * rel_p.imag
@@ -70,7 +70,7 @@ def avoid_small(
     to_obstacle,
     lanes=None,
 ):
-    """:func:`sim.orca.avoid` for a small team: the same commands bit for bit, most periods
+    """:func:`sim.control.orca.avoid` for a small team: the same commands bit for bit, most periods
     without numpy.
 
     For a handful of robots :func:`avoid` costs numpy's overhead per call, several hundred

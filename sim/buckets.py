@@ -6,11 +6,15 @@ bounding box; in an arena with a hundred obstacles that loop is the cost. :class
 files each box under the grid cells it overlaps, so a query rectangle looks at the boxes of the
 cells it covers and nothing else. The answer is a superset of the boxes that meet the rectangle,
 in ascending index order (callers that break ties by order see the same order as a full loop).
+:class:`EdgeCells` does the same for the array query "nearest obstacle point" of many robots
+at once: each cell of a grid lists the few edges that can be nearest to a point in it.
 """
 
 from __future__ import annotations
 
 from math import floor
+
+import numpy as np
 
 MAX_CELLS = 64  # a query covering more cells than this gets every box (a loop over all is as quick)
 
@@ -68,3 +72,64 @@ def typical_size(boxes: list[tuple[float, float, float, float]]) -> float:
     """A cell side for :class:`BoxBuckets`: the median of the boxes' longer sides, >= 0.5 m."""
     sides = sorted(max(x1 - x0, y1 - y0) for x0, y0, x1, y1 in boxes)
     return max(0.5, sides[len(sides) // 2]) if sides else 1.0
+
+
+EDGE_CELLS = 4096  # cells of an EdgeCells grid at most (about 1.6 m side for the 1000-robot arena)
+EDGE_CELLS_MIN_EDGES = 48  # below this many edges a pass over all of them is as quick
+_FAR = 1e150  # the padding edge: a point this far out is never the nearest
+
+
+class EdgeCells:
+    """For each cell of a square grid, the segments that can hold the nearest segment point of
+    some point in the cell: a nearest-obstacle query looks at those and no others.
+
+    A point p in cell C (centre c, half diagonal r) has d(p, e) <= d(c, e) + r for every
+    segment e, so its nearest segment lies within d_min(c) + r of p and hence within
+    d_min(c) + 2 r of c. Each cell keeps the segments with d(c, e) <= d_min(c) + 2 r (plus a
+    micrometre for rounding), in ascending index order, padded with one far-away segment; every
+    segment at the least distance from p is among them, so a query over them returns what a
+    pass over all segments returns, bit for bit (the same arithmetic per segment, and the first
+    of equal distances is the lowest index in both).
+
+    Args:
+        e0, e1: (E,) segment ends, x + iy.
+        lo, hi: corners of the region the grid covers (points outside it have no cell).
+        cells: at most this many cells.
+    """
+
+    def __init__(
+        self, e0: np.ndarray, e1: np.ndarray, lo: complex, hi: complex, cells: int = EDGE_CELLS
+    ) -> None:
+        span = hi - lo
+        side = max(float(np.sqrt(max(span.real * span.imag, 1e-12) / cells)), 0.25)
+        self.nx = max(1, int(np.ceil(span.real / side)))
+        self.ny = max(1, int(np.ceil(span.imag / side)))
+        self.lo, self.inv = lo, 1.0 / side
+        xs = lo.real + side * (np.arange(self.nx) + 0.5)
+        ys = lo.imag + side * (np.arange(self.ny) + 0.5)
+        centres = (xs[None, :] + 1j * ys[:, None]).ravel()  # index = iy * nx + ix
+        n = len(e0)
+        parts = []
+        for a in range(0, len(centres), 256):  # bounded memory: 256 cells x E at a time
+            dist = _segment_distances(centres[a : a + 256], e0, e1)
+            keep = dist <= dist.min(axis=1, keepdims=True) + np.sqrt(2.0) * side + 1e-6
+            order = np.argsort(~keep, axis=1, kind="stable")  # kept ones first, ascending
+            parts.append(np.where(np.take_along_axis(keep, order, axis=1), order, n))
+        width = max(int((p < n).sum(axis=1).max()) for p in parts)
+        self.table = np.concatenate([p[:, :width] for p in parts])  # (cells, K), padding n
+        self.e0 = np.append(e0, _FAR + 0j)  # the padding segment: a point far away
+        self.d = np.append(e1 - e0, 0j)
+
+    def cell_of(self, z: np.ndarray) -> np.ndarray:
+        """(k,) cell index of each point, -1 outside the grid."""
+        fx = np.floor((z.real - self.lo.real) * self.inv)
+        fy = np.floor((z.imag - self.lo.imag) * self.inv)
+        inside = (fx >= 0) & (fx < self.nx) & (fy >= 0) & (fy < self.ny)
+        return np.where(inside, fy * self.nx + fx, -1).astype(np.intp)
+
+
+def _segment_distances(p: np.ndarray, e0: np.ndarray, e1: np.ndarray) -> np.ndarray:
+    """(P, E) distance from each point to each segment."""
+    d = e1 - e0
+    t = ((p[:, None] - e0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
+    return np.abs(e0 + np.clip(t, 0.0, 1.0) * d - p[:, None])

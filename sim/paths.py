@@ -28,11 +28,12 @@ from itertools import pairwise
 
 import numpy as np
 
-from sim.buckets import BoxBuckets, typical_size
+from sim.buckets import EDGE_CELLS_MIN_EDGES, BoxBuckets, EdgeCells, typical_size
 
 WAYPOINT_SWITCH_M = 0.2  # aim at the next waypoint once this close to the current one
 LOOKAHEAD_M = 1.5  # a robot pushed off its path steers for the path this far ahead
 SCALAR_FREE_MAX = 48  # free widths of fewer (segment, obstacle edge) pairs in plain Python
+CELLS_FROM = 2048  # to_obstacle looks up grid cells for more (point, edge) pairs than this
 FREE_CHUNK = 96  # segments per array pass of set_paths (about as quick as any, bounded memory)
 
 
@@ -76,6 +77,12 @@ class PathFollower:
         ]
         boxes = [(lo.real, lo.imag, hi.real, hi.imag) for lo, hi in self.boxes_]
         self.buckets_ = BoxBuckets(boxes, typical_size(boxes))
+        self.cells_ = None  # the edges near each grid cell, for to_obstacle (many edges only)
+        if len(self.edge0_) >= EDGE_CELLS_MIN_EDGES:
+            ends = np.concatenate([self.edge0_, self.edge1_])
+            lo = complex(ends.real.min(), ends.imag.min())
+            hi = complex(ends.real.max(), ends.imag.max())
+            self.cells_ = EdgeCells(self.edge0_, self.edge1_, lo, hi)
         self.points = np.zeros((m, 2), dtype=complex)  # (m, P) waypoints, padded with the last
         self.last = np.full(m, -1)  # index of the final waypoint (-1: no path)
         self.index = np.zeros(m, dtype=int)  # waypoint currently aimed at
@@ -341,13 +348,20 @@ class PathFollower:
         return left, side - self.free_[0, rows], self.free_[1, rows] - side
 
     def to_obstacle(self, z: np.ndarray) -> np.ndarray:
-        """From each point z (k,) to the nearest point of any obstacle or wall (x + iy)."""
+        """From each point z (k,) to the nearest point of any obstacle or wall (x + iy).
+
+        With many edges and points (more than ``CELLS_FROM`` pairs), points inside the edges'
+        bounding box look only at the edges their grid cell lists (``sim.buckets.EdgeCells``):
+        the same result, bit for bit."""
         if not self.n_owner_ or not len(z):
             return np.full(len(z), np.inf + 0j)
-        e0, d = self.edge0_, self.edge1_ - self.edge0_
-        t = ((z[:, None] - e0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
-        near = e0 + np.minimum(np.maximum(t, 0.0), 1.0) * d - z[:, None]
-        return near[np.arange(len(z)), np.abs(near).argmin(axis=1)]
+        cells = self.cells_
+        if cells is not None and len(z) * len(self.edge0_) > CELLS_FROM:
+            cell = cells.cell_of(z)
+            if (cell >= 0).all():
+                idx = cells.table[cell]
+                return _nearest(z, cells.e0[idx], cells.d[idx])
+        return _nearest(z, self.edge0_, self.edge1_ - self.edge0_)
 
     def to_obstacle_one(self, z: complex) -> complex:
         """:meth:`to_obstacle` of one point, in plain Python: obstacles whose bounding box is
@@ -449,6 +463,14 @@ class PathFollower:
             if min(side) < 1e-9:
                 right = min(right, dist)
         return left, right
+
+
+def _nearest(z: np.ndarray, e0: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """(k,) from each point z to the nearest point of the segments e0 -> e0 + d, x + iy (the
+    segments (E,) for all points, or (k, K) per point; ties: the first)."""
+    t = ((z[:, None] - e0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
+    near = e0 + np.minimum(np.maximum(t, 0.0), 1.0) * d - z[:, None]
+    return near[np.arange(len(z)), np.abs(near).argmin(axis=1)]
 
 
 def _to_segment(p: complex, s0: complex, s1: complex) -> float:

@@ -42,3 +42,65 @@ def test_a_small_query_in_a_large_field_looks_at_few_boxes():
     sizes = [len(buckets.near(x, y, x + 1.0, y + 1.0)) for x, y in corners.tolist()]
     assert max(sizes) < 10 and min(sizes) >= 1  # each query holds its own box's corner
     assert buckets.near(0.0, 0.0, 2.0 * MAX_CELLS, 2.0 * MAX_CELLS) == list(range(100))
+
+
+def _nearest_all(fol, z):
+    """The nearest obstacle point by a pass over every edge: the reference."""
+    e0, d = fol.edge0_, fol.edge1_ - fol.edge0_
+    t = ((z[:, None] - e0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
+    near = e0 + np.minimum(np.maximum(t, 0.0), 1.0) * d - z[:, None]
+    return near[np.arange(len(z)), np.abs(near).argmin(axis=1)]
+
+
+def _boxes_in_arena(corners, size, w=30.0, h=20.0):
+    boxes = [
+        ((x, y), (x + s, y), (x + s, y + s), (x, y + s))
+        for (x, y), s in zip(corners, size, strict=True)
+    ]
+    walls = [((0, 0), (w, 0)), ((w, 0), (w, h)), ((w, h), (0, h)), ((0, h), (0, 0))]
+    return [*boxes, *walls]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.tuples(st.floats(0.0, 28.0), st.floats(0.0, 18.0)), min_size=12, max_size=40),
+    st.integers(0, 2**32 - 1),
+)
+def test_to_obstacle_over_grid_cells_is_the_full_pass_bit_for_bit(corners, seed):
+    """``PathFollower.to_obstacle`` with the edge grid (``EdgeCells``) gives the very same
+    vectors as a pass over every edge, for points inside, on cell borders and outside the
+    grid, and for ties (points equally far from two edges: the first edge in both)."""
+    from sim.buckets import EdgeCells
+    from sim.paths import PathFollower
+
+    rng = np.random.default_rng(seed)
+    size = rng.uniform(0.2, 2.5, len(corners))
+    fol = PathFollower(4, 1.0, _boxes_in_arena(corners, size), 0.25)
+    assert isinstance(fol.cells_, EdgeCells)  # >= 52 edges: the grid is built
+    cells = fol.cells_
+    z = rng.uniform(-2.0, 32.0, 400) + 1j * rng.uniform(-2.0, 22.0, 400)
+    side = 1.0 / cells.inv  # points on cell borders and corners
+    border = cells.lo + side * (rng.integers(0, cells.nx, 60) + 1j * rng.integers(0, cells.ny, 60))
+    mid = 0.5 * (fol.edge0_[:40] + fol.edge1_[:40])  # on an edge: distance 0, maybe two edges
+    z = np.concatenate([z, border, mid, [15.0 + 10.0j]])
+    want = _nearest_all(fol, z)
+    for part in (z, z[(z.real > 0) & (z.real < 30) & (z.imag > 0) & (z.imag < 20)], z[:100]):
+        got = fol.to_obstacle(part)
+        assert np.array_equal(got.view(float), _nearest_all(fol, part).view(float))
+    assert np.array_equal(fol.to_obstacle(z).view(float), want.view(float))
+
+
+def test_edge_cells_list_few_edges_in_a_large_arena():
+    """The 1000-robot bench arena (392 edges): each cell lists at most a tenth of them, so a
+    query over 300 robots does a tenth of the arithmetic; the grid is not built for a handful
+    of edges."""
+    from sim.bench_arena import bench_scenario
+    from sim.paths import PathFollower
+
+    sp = bench_scenario(1000, np.random.default_rng(0), control_hz=10.0).spatial
+    w, h = sp.width_m, sp.height_m
+    walls = [((0, 0), (w, 0)), ((w, 0), (w, h)), ((w, h), (0, h)), ((0, h), (0, 0))]
+    fol = PathFollower(4, 1.0, [*sp.obstacles, *walls], 0.25)
+    assert fol.cells_.table.shape[1] <= len(fol.edge0_) // 10
+    small = PathFollower(4, 1.0, walls, 0.25)
+    assert small.cells_ is None

@@ -60,6 +60,7 @@ from sim.paths import PathFollower
 from sim.planning import GridPlanner
 from sim.recording import shown_states
 from sim.scenario import Scenario
+from sim.stalls import StallMeter
 from sim.tasks import Batch
 from sim.world import Abandon, Completion, WorldState
 
@@ -130,6 +131,7 @@ class PymunkWorld:
             space.add(shape)
         self.motors = Motors(space, drive, self.starts_, ROBOT, self.headings_, self.buffers_[0])
         self.contacts = ContactMonitor(space, ROBOT, WALL, self.buffers_[1])
+        self.stalls = StallMeter(self.substeps * self.dt_s)
         self.space = space
         self.clock = Clock(self.dt_s)
         self.goal_s_, self.last_ctrl_step_ = 0.0, -1
@@ -327,6 +329,7 @@ class PymunkWorld:
             ("motors", self.motors),
             ("jobs", self.jobs),
             ("contacts", self.contacts),
+            ("stalls", self.stalls),
         ) + ((("faults", self.faults),) if self.faults is not None else ())
 
     # -- robot faults (sim.faults): the wiring; the model decides when robots break ----------
@@ -398,7 +401,8 @@ class PymunkWorld:
     def summary(self, record=None) -> dict:
         """JSON-able physics statistics of the run so far: contacts begun robot-robot and
         robot-wall, each a touch (closing speed below ``sim.contacts.IMPACT_MPS``) or an impact,
-        also per robot-hour (robots x simulated hours)."""
+        also per robot-hour (robots x simulated hours); where driving robots stood still and
+        why (``sim.stalls``)."""
         c = self.contacts
         hours = max(self.scenario.n_robots * self.time_s / 3600.0, 1e-12)
         kinds = {
@@ -417,6 +421,7 @@ class PymunkWorld:
             "collisions_wall": self.collisions_wall_,
             "max_overlap_m": self.contacts_max_overlap_m,
             "failed_tasks": self.jobs.failures,
+            **self.stalls.summary(),
         }
 
     def _control(self) -> None:
@@ -433,6 +438,7 @@ class PymunkWorld:
                 self.recorder.poses(t, xy, f.last_th_rad, shown)
             return
         self.control.period(t)
+        self.stalls.sample(f, self.jobs.holding)
         if self.recorder is not None:
             shown = shown_states(f.state, f.t_progress_s, t)
             self.recorder.poses(t, self.motors.flat[:, :2], f.last_th_rad, shown)

@@ -1,0 +1,122 @@
+"""Where driving robots stand still, and what stands in their way.
+
+A robot on its way to a task that is commanded less than ``STILL_MPS`` in a control period
+stands still for that period (turning in place, waiting for a way through, holding in a site's
+queue). :class:`StallMeter` counts those periods by cause: the site queue it holds in, or the
+nearest other robot within ``NEAR_M`` and what that robot does (the robot collision avoidance
+stops it for is not always the one a speed cap names, so the meter looks for itself). With collision
+avoidance on, this is where the time goes that avoidance costs (README, "Collision
+avoidance"): ``mrta run ... --json`` reports it under ``spatial`` as ``still_s_<cause>`` and the
+share of the driving time (``still_share``).
+
+Causes (``CAUSES``): ``queue`` (holding for a place at its site), ``robot_at_work``,
+``robot_idle`` (idle, stepping aside or driving out of a site), ``robot_head_on`` (a driving
+robot heading more than 135 degrees away from its heading), ``robot_same_way`` (less than 45
+degrees), ``robot_crossing`` (between), ``no_robot`` (turning at a corner, braking for a wall,
+no robot within ``NEAR_M``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from sim.recording import DRIVING, WORKING
+
+STILL_MPS = 0.1  # a driving robot commanded slower than this stands still, m/s
+NEAR_M = 1.2  # the nearest robot counts within this (centre distance), m
+DENSE_MAX = 64  # up to this many robots the nearest is found from all distances, else a k-d tree
+CAUSES = (
+    "queue",
+    "robot_at_work",
+    "robot_idle",
+    "robot_head_on",
+    "robot_crossing",
+    "robot_same_way",
+    "no_robot",
+)
+_QUEUE, _WORK, _IDLE, _HEAD_ON, _CROSSING, _SAME_WAY, _NONE = range(len(CAUSES))
+_COS_HEAD_ON = np.cos(np.radians(135.0))
+_COS_SAME_WAY = np.cos(np.radians(45.0))
+
+
+class StallMeter:
+    """Control periods of driving robots, and of those standing still, by cause.
+
+    Args:
+        period_s: the control period, s.
+    """
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self.driving = 0  # robot-periods driving (state DRIVING)
+        self.still = np.zeros(len(CAUSES), dtype=np.int64)  # robot-periods standing, by cause
+
+    def sample(self, fleet, holding: np.ndarray) -> None:
+        """Count one control period, after it set the commands (``fleet.v_cmd_mps``; positions
+        and headings ``fleet.last_z_m``, ``last_th_rad``); ``holding``: (m,) robots holding in
+        a site's queue."""
+        drive = fleet.state == DRIVING
+        n = int(np.count_nonzero(drive))
+        if not n:
+            return
+        self.driving += n
+        still = drive & (np.abs(fleet.v_cmd_mps) < STILL_MPS)
+        rows = still.nonzero()[0]
+        if not len(rows):
+            return
+        other, dist = nearest_other(fleet.last_z_m, rows)
+        near = dist < NEAR_M
+        other = np.where(near, other, 0)
+        th = fleet.last_th_rad
+        cos = np.cos(th[other] - th[rows])
+        driving = fleet.state[other] == DRIVING
+        cause = np.where(cos < _COS_HEAD_ON, _HEAD_ON, _CROSSING)
+        cause = np.where(cos > _COS_SAME_WAY, _SAME_WAY, cause)
+        cause = np.where(driving, cause, _IDLE)
+        cause = np.where(fleet.state[other] == WORKING, _WORK, cause)
+        cause = np.where(near, cause, _NONE)
+        cause = np.where(holding[rows], _QUEUE, cause)
+        self.still += np.bincount(cause, minlength=len(CAUSES))
+
+    def summary(self) -> dict[str, float]:
+        """``still_s_<cause>`` (robot-seconds standing still while driving, by cause),
+        ``driving_s`` (robot-seconds driving) and ``still_share`` (standing over driving)."""
+        still = self.still.tolist()
+        out = {f"still_s_{c}": k * self.period_s for c, k in zip(CAUSES, still, strict=True)}
+        out["driving_s"] = float(self.driving * self.period_s)
+        out["still_share"] = float(self.still.sum() / max(self.driving, 1))
+        return out
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The counts since reset (checkpoints)."""
+        return {"driving": np.array(self.driving, dtype=np.int64), "still": self.still.copy()}
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Inverse of :meth:`state_arrays`; a checkpoint written before the meter existed
+        restores zero counts."""
+        self.driving = int(arrays.get("driving", 0))
+        still = np.asarray(arrays.get("still", np.zeros(len(CAUSES))), dtype=np.int64)
+        if still.shape != (len(CAUSES),):
+            raise ValueError(f"stalls/still: expected {len(CAUSES)} counts, got {still.shape}")
+        self.still = still.copy()
+
+
+def nearest_other(z: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each robot ``rows``, the nearest other robot and its centre distance (inf, and any
+    index, when none is within ``NEAR_M`` in a large team)."""
+    m = len(z)
+    if m < 2:
+        return np.zeros(len(rows), dtype=int), np.full(len(rows), np.inf)
+    if m <= DENSE_MAX:
+        d = np.abs(z[rows, None] - z[None, :])
+        d[np.arange(len(rows)), rows] = np.inf
+        other = d.argmin(axis=1)
+        return other, d[np.arange(len(rows)), other]
+    xy = np.column_stack([z.real, z.imag])
+    dist, idx = cKDTree(xy).query(xy[rows], k=2, distance_upper_bound=NEAR_M)
+    second = idx[:, 0] == rows  # the robot itself is one of the two (ties: either)
+    pick = np.where(second, 1, 0)
+    k = np.arange(len(rows))
+    other, dist = idx[k, pick], dist[k, pick]
+    return np.where(other < m, other, 0), dist

@@ -1,0 +1,126 @@
+"""Where driving robots stand still (``sim.stalls``): causes counted exactly, and in the world."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from sim.hardcases import swap_world, time_to_all_arrive
+from sim.recording import DRIVING, IDLE, WORKING
+from sim.stalls import CAUSES, NEAR_M, STILL_MPS, StallMeter, nearest_other
+
+
+def _fleet(state, v, xy, th_deg):
+    xy = np.asarray(xy, dtype=float)
+    return SimpleNamespace(
+        state=np.array(state),
+        v_cmd_mps=np.array(v, dtype=float),
+        last_z_m=xy[:, 0] + 1j * xy[:, 1],
+        last_th_rad=np.radians(np.array(th_deg, dtype=float)),
+    )
+
+
+def test_each_still_robot_is_counted_once_under_its_cause():
+    """Nine robots, one period of 0.1 s: robot 0 drives (not still); 1 holds in a queue (a
+    robot near or not); 2 stands next to robot 7 at work; 3 next to idle robot 8; 4 and 5
+    face each other (170 degrees apart); 6 stands 1 m behind 0, 20 degrees off its heading."""
+    d, i, w = DRIVING, IDLE, WORKING
+    state = [d, d, d, d, d, d, d, w, i]
+    v = [1.0, 0.0, 0.05, -0.05, 0.0, 0.0, 0.0, 0.0, 0.0]
+    xy = [(0, 0), (0, 0.7), (10, 0), (20, 0), (30, 0), (30.6, 0), (0, -1.0), (10.8, 0), (20.9, 0)]
+    th = [0.0, 0.0, 0.0, 0.0, 0.0, 170.0, 20.0, 0.0, 0.0]
+    holding = np.array([False, True, False, False, False, False, False, False, False])
+    meter = StallMeter(0.1)
+    meter.sample(_fleet(state, v, xy, th), holding)
+    got = dict(zip(CAUSES, meter.still.tolist(), strict=True))
+    assert got == {
+        "queue": 1,
+        "robot_at_work": 1,
+        "robot_idle": 1,
+        "robot_head_on": 2,
+        "robot_crossing": 0,
+        "robot_same_way": 1,
+        "no_robot": 0,
+    }
+    assert meter.driving == 7  # robots 0-6 drive; 7 works, 8 is idle
+    out = meter.summary()
+    assert out["driving_s"] == pytest.approx(0.7)
+    assert out["still_s_robot_head_on"] == pytest.approx(0.2)
+    assert out["still_share"] == pytest.approx(6 / 7)
+
+
+def test_thresholds_speed_distance_and_angle():
+    """At ``STILL_MPS`` a robot moves; a robot ``NEAR_M`` away or farther is no robot; a
+    crossing is between 45 and 135 degrees, the same way within 45."""
+    d = DRIVING
+    meter = StallMeter(0.1)
+    state = [d] * 7
+    v = [STILL_MPS] + [0.0] * 6
+    xy = [(0, 0), (0, 10), (NEAR_M, 10), (20, 0), (20.5, 0), (30, 0), (30.5, 0)]
+    th = [0.0, 0.0, 0.0, 0.0, 90.0, 0.0, 30.0]
+    meter.sample(_fleet(state, v, xy, th), np.zeros(7, bool))
+    got = dict(zip(CAUSES, meter.still.tolist(), strict=True))
+    assert got["no_robot"] == 2  # robots 1 and 2: NEAR_M apart
+    assert got["robot_crossing"] == 2  # robots 3 and 4: 90 degrees
+    assert got["robot_same_way"] == 2  # robots 5 and 6: 30 degrees
+    assert sum(got.values()) == 6
+
+
+def test_nearest_other_in_a_large_team_is_the_nearest():
+    """Beyond ``DENSE_MAX`` robots the nearest comes from a k-d tree: the same robots as from
+    all distances (where one is within ``NEAR_M``), itself never."""
+    rng = np.random.default_rng(3)
+    z = rng.uniform(0, 30, 300) + 1j * rng.uniform(0, 30, 300)
+    rows = np.sort(rng.choice(300, 80, replace=False))
+    other, dist = nearest_other(z, rows)
+    d = np.abs(z[rows, None] - z[None, :])
+    d[np.arange(len(rows)), rows] = np.inf
+    want = d.min(axis=1)
+    close = want < NEAR_M
+    assert close.sum() > 20 and (~close).sum() > 0
+    assert np.array_equal(other[close], d.argmin(axis=1)[close])
+    assert np.allclose(dist[close], want[close], rtol=0, atol=1e-12)
+    assert np.all(dist[~close] >= NEAR_M) and np.all(other != rows)
+
+
+def test_counts_survive_a_checkpoint_and_old_checkpoints_restore_zero():
+    meter = StallMeter(0.1)
+    meter.driving, meter.still[:] = 12, np.arange(len(CAUSES))
+    other = StallMeter(0.1)
+    other.restore_arrays(meter.state_arrays())
+    assert other.driving == 12 and other.still.tolist() == list(range(len(CAUSES)))
+    other.restore_arrays({})  # written before the meter existed
+    assert other.driving == 0 and not other.still.any()
+    with pytest.raises(ValueError, match="stalls/still"):
+        other.restore_arrays({"driving": np.array(1), "still": np.zeros(3)})
+
+
+def test_head_on_in_a_single_lane_is_counted_as_head_on():
+    """Two robots swap ends of a corridor 0.75 m wide (one passes at a time): the one that
+    waits stands still facing the other; a robot alone in an open arena never stands for a
+    robot."""
+    world = swap_world(
+        [(3.5, 3.0), (8.5, 3.0)],
+        [(9.5, 3.0), (2.5, 3.0)],
+        (12.0, 6.0),
+        obstacles=(
+            ((4.0, 0.0), (8.0, 0.0), (8.0, 2.625), (4.0, 2.625)),
+            ((4.0, 3.375), (8.0, 3.375), (8.0, 6.0), (4.0, 6.0)),
+        ),
+        headings_deg=[0.0, 180.0],
+    )
+    assert np.isfinite(time_to_all_arrive(world, 120.0))
+    out = world.summary()
+    assert out["still_s_robot_head_on"] >= 1.0
+    assert out["driving_s"] > out["still_s_robot_head_on"]
+    assert sum(out[f"still_s_{c}"] for c in CAUSES) == pytest.approx(
+        out["still_share"] * out["driving_s"]
+    )
+    alone = swap_world([(1.0, 1.0)], [(9.0, 5.0)], (10.0, 6.0))
+    assert np.isfinite(time_to_all_arrive(alone, 60.0))
+    solo = alone.summary()
+    robots = [c for c in CAUSES if c.startswith("robot_") or c == "queue"]
+    assert all(solo[f"still_s_{c}"] == 0.0 for c in robots)
+    assert solo["driving_s"] > 5.0

@@ -173,9 +173,10 @@ def cmd_run(args) -> int:
         f"wrote {out}/metrics.json"
     )
     if scenario.spatial is not None:
-        from scenarios.experiments.figures import contact_line
+        from scenarios.experiments.figures import contact_line, stall_line
 
         print(contact_line(summary["spatial"]).replace("\n", "; "))
+        print(stall_line(summary["spatial"]))
     return 0
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.contacts import IMPACT_MPS
+from sim.stalls import STILL_MPS
 
 ALLOCATOR_COLOURS = {"market": "#4c72b0", "ql": "#dd8452", "expt": "#55a868"}
 ALLOCATOR_LABELS = {"market": "Market (MRTA)", "ql": "QL-MRTA", "expt": "ExpT-MRTA"}
@@ -332,6 +333,20 @@ def contact_line(spatial: dict, extra: str = "") -> str:
 
 
 CONTACT_KINDS = ("robot_touch", "robot_impact", "wall_touch", "wall_impact")
+
+
+def stall_line(spatial: dict) -> str:
+    """Where driving robots stood still (``sim.stalls``), largest cause first, on one line;
+    empty for a summary without the stall counts."""
+    if "still_share" not in spatial:
+        return ""
+    causes = [(k[len("still_s_") :], v) for k, v in spatial.items() if k.startswith("still_s_")]
+    causes = sorted(causes, key=lambda kv: -kv[1])
+    parts = ", ".join(f"{name.replace('_', ' ')} {v:,.0f} s" for name, v in causes if v > 0)
+    return (
+        f"driving robots stood still (below {STILL_MPS:g} m/s) {spatial['still_share']:.1%} of "
+        f"{spatial['driving_s']:,.0f} robot-s driving" + (f": {parts}" if parts else "")
+    )
 
 
 def fig_faults_run(faults: dict, path: Path | None = None):

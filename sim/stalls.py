@@ -18,6 +18,8 @@ no robot within ``NEAR_M``).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -26,6 +28,7 @@ from sim.recording import DRIVING, WORKING
 STILL_MPS = 0.1  # a driving robot commanded slower than this stands still, m/s
 NEAR_M = 1.2  # the nearest robot counts within this (centre distance), m
 DENSE_MAX = 64  # up to this many robots the nearest is found from all distances, else a k-d tree
+SMALL_MAX = 32  # up to this many robots a period is counted in plain Python (numpy's overhead)
 CAUSES = (
     "queue",
     "robot_at_work",
@@ -36,8 +39,8 @@ CAUSES = (
     "no_robot",
 )
 _QUEUE, _WORK, _IDLE, _HEAD_ON, _CROSSING, _SAME_WAY, _NONE = range(len(CAUSES))
-_COS_HEAD_ON = np.cos(np.radians(135.0))
-_COS_SAME_WAY = np.cos(np.radians(45.0))
+_COS_HEAD_ON = math.cos(math.radians(135.0))
+_COS_SAME_WAY = math.cos(math.radians(45.0))
 
 
 class StallMeter:
@@ -56,6 +59,8 @@ class StallMeter:
         """Count one control period, after it set the commands (``fleet.v_cmd_mps``; positions
         and headings ``fleet.last_z_m``, ``last_th_rad``); ``holding``: (m,) robots holding in
         a site's queue."""
+        if len(fleet.state) <= SMALL_MAX:
+            return self._sample_small(fleet, holding)
         drive = fleet.state == DRIVING
         n = int(np.count_nonzero(drive))
         if not n:
@@ -78,6 +83,47 @@ class StallMeter:
         cause = np.where(near, cause, _NONE)
         cause = np.where(holding[rows], _QUEUE, cause)
         self.still += np.bincount(cause, minlength=len(CAUSES))
+
+    def _sample_small(self, fleet, holding: np.ndarray) -> None:
+        """:meth:`sample` robot by robot in plain Python (a small team): the same causes,
+        the nearest robot the first of equal distances as numpy's ``argmin``."""
+        state, v = fleet.state.tolist(), fleet.v_cmd_mps.tolist()
+        rows, n = [], 0
+        for j, (sj, vj) in enumerate(zip(state, v, strict=True)):
+            if sj == DRIVING:
+                n += 1
+                if abs(vj) < STILL_MPS:
+                    rows.append(j)
+        if not n:
+            return
+        self.driving += n
+        if not rows:
+            return
+        z, th, hold = fleet.last_z_m.tolist(), fleet.last_th_rad.tolist(), holding.tolist()
+        for j in rows:
+            if hold[j]:
+                self.still[_QUEUE] += 1
+                continue
+            zj, best, k = z[j], math.inf, -1
+            for i, zi in enumerate(z):
+                if i != j:
+                    d = abs(zi - zj)
+                    if d < best:
+                        best, k = d, i
+            if best >= NEAR_M:
+                cause = _NONE
+            elif state[k] == WORKING:
+                cause = _WORK
+            elif state[k] != DRIVING:
+                cause = _IDLE
+            else:
+                cos = math.cos(th[k] - th[j])
+                cause = (
+                    _HEAD_ON
+                    if cos < _COS_HEAD_ON
+                    else (_SAME_WAY if cos > _COS_SAME_WAY else _CROSSING)
+                )
+            self.still[cause] += 1
 
     def summary(self) -> dict[str, float]:
         """``still_s_<cause>`` (robot-seconds standing still while driving, by cause),

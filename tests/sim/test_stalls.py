@@ -22,7 +22,17 @@ def _fleet(state, v, xy, th_deg):
     )
 
 
-def test_each_still_robot_is_counted_once_under_its_cause():
+@pytest.fixture(params=["python", "numpy"])
+def counting(request, monkeypatch):
+    """Both ways a period is counted: robot by robot (a small team) and over numpy arrays."""
+    import sim.stalls
+
+    if request.param == "numpy":
+        monkeypatch.setattr(sim.stalls, "SMALL_MAX", 0)
+    return request.param
+
+
+def test_each_still_robot_is_counted_once_under_its_cause(counting):
     """Nine robots, one period of 0.1 s: robot 0 drives (not still); 1 holds in a queue (a
     robot near or not); 2 stands next to robot 7 at work; 3 next to idle robot 8; 4 and 5
     face each other (170 degrees apart); 6 stands 1 m behind 0, 20 degrees off its heading."""
@@ -51,7 +61,7 @@ def test_each_still_robot_is_counted_once_under_its_cause():
     assert out["still_share"] == pytest.approx(6 / 7)
 
 
-def test_thresholds_speed_distance_and_angle():
+def test_thresholds_speed_distance_and_angle(counting):
     """At ``STILL_MPS`` a robot moves; a robot ``NEAR_M`` away or farther is no robot; a
     crossing is between 45 and 135 degrees, the same way within 45."""
     d = DRIVING

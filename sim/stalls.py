@@ -29,6 +29,7 @@ STILL_MPS = 0.1  # a driving robot commanded slower than this stands still, m/s
 NEAR_M = 1.2  # the nearest robot counts within this (centre distance), m
 DENSE_MAX = 64  # up to this many robots the nearest is found from all distances, else a k-d tree
 SMALL_MAX = 32  # up to this many robots a period is counted in plain Python (numpy's overhead)
+TREE_K = 9  # a large team: the robots looked at for the nearest (on a square grid 4 tie)
 CAUSES = (
     "queue",
     "robot_at_work",
@@ -149,8 +150,10 @@ class StallMeter:
 
 
 def nearest_other(z: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For each robot ``rows``, the nearest other robot and its centre distance (inf, and any
-    index, when none is within ``NEAR_M`` in a large team)."""
+    """For each robot ``rows``, the nearest other robot and its centre distance; of robots at
+    the same distance the lowest index, as ``argmin`` over all of them (robots on a start
+    grid are). In a large team the ``TREE_K`` nearest within ``NEAR_M`` are looked at (a k-d
+    tree): inf, and index 0, when none is that near."""
     m = len(z)
     if m < 2:
         return np.zeros(len(rows), dtype=int), np.full(len(rows), np.inf)
@@ -160,9 +163,11 @@ def nearest_other(z: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarr
         other = d.argmin(axis=1)
         return other, d[np.arange(len(rows)), other]
     xy = np.column_stack([z.real, z.imag])
-    dist, idx = cKDTree(xy).query(xy[rows], k=2, distance_upper_bound=NEAR_M)
-    second = idx[:, 0] == rows  # the robot itself is one of the two (ties: either)
-    pick = np.where(second, 1, 0)
-    k = np.arange(len(rows))
-    other, dist = idx[k, pick], dist[k, pick]
-    return np.where(other < m, other, 0), dist
+    tree = cKDTree(xy, balanced_tree=False, compact_nodes=False)  # quicker to build
+    k = min(TREE_K, m)
+    dist, idx = tree.query(xy[rows], k=k, distance_upper_bound=NEAR_M)
+    dist = np.where(idx == rows[:, None], np.inf, dist)  # not itself
+    best = dist.min(axis=1)
+    tied = dist == best[:, None]
+    other = np.where(tied & np.isfinite(dist), idx, m).min(axis=1)  # lowest index of the nearest
+    return np.where(other < m, other, 0), best

@@ -80,19 +80,23 @@ def test_thresholds_speed_distance_and_angle(counting):
 
 def test_nearest_other_in_a_large_team_is_the_nearest():
     """Beyond ``DENSE_MAX`` robots the nearest comes from a k-d tree: the same robots as from
-    all distances (where one is within ``NEAR_M``), itself never."""
+    all distances (where one is within ``NEAR_M``), itself never; on a start grid, where up to
+    four robots are equally near, the lowest index, as argmin over all distances picks."""
     rng = np.random.default_rng(3)
-    z = rng.uniform(0, 30, 300) + 1j * rng.uniform(0, 30, 300)
-    rows = np.sort(rng.choice(300, 80, replace=False))
-    other, dist = nearest_other(z, rows)
-    d = np.abs(z[rows, None] - z[None, :])
-    d[np.arange(len(rows)), rows] = np.inf
-    want = d.min(axis=1)
-    close = want < NEAR_M
-    assert close.sum() > 20 and (~close).sum() > 0
-    assert np.array_equal(other[close], d.argmin(axis=1)[close])
-    assert np.allclose(dist[close], want[close], rtol=0, atol=1e-12)
-    assert np.all(dist[~close] >= NEAR_M) and np.all(other != rows)
+    scattered = rng.uniform(0, 30, 300) + 1j * rng.uniform(0, 30, 300)
+    grid = (np.arange(100) % 10) * 1.0 + 1j * (np.arange(100) // 10) * 1.0 + 40.0
+    for z in (scattered, np.concatenate([scattered, grid])):
+        rows = np.sort(rng.choice(len(z), 120, replace=False))
+        rows = np.union1d(rows, np.arange(300, len(z)))  # every grid robot
+        other, dist = nearest_other(z, rows)
+        d = np.abs(z[rows, None] - z[None, :])
+        d[np.arange(len(rows)), rows] = np.inf
+        want = d.min(axis=1)
+        close = want < NEAR_M
+        assert close.sum() > 20 and (~close).sum() > 0
+        assert np.array_equal(other[close], d.argmin(axis=1)[close])
+        assert np.allclose(dist[close], want[close], rtol=0, atol=1e-12)
+        assert np.all(dist[~close] >= NEAR_M) and np.all(other != rows)
 
 
 def test_counts_survive_a_checkpoint_and_old_checkpoints_restore_zero():

@@ -378,8 +378,11 @@ def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=No
     ones whose plan ``v_plan`` along the heading leaves an obstacle or lane half-plane
     (:func:`wall_lines`) take the velocity nearest their preferred one ``pref`` inside them
     (sliding along the wall rather than creeping into it) and the forward speed along the
-    heading that keeps them, at most ``|v_plan|`` (the caps toward robots stay). No right-hand
-    bias: it would turn the robot toward the wall it follows.
+    heading that keeps them, at most ``|v_plan|`` (the caps toward robots stay) and never
+    backwards: this program has no robot half-planes, and a robot backing off a wall drove into
+    the robot behind it (the robot-robot impacts of paper_spatial were that); stopped, it
+    turns toward the velocity it chose, in place, which moves its centre nowhere. No
+    right-hand bias: it would turn the robot toward the wall it follows.
 
     Args:
         z, h: (m,) positions and unit headings; rows: (n,) sorted robot indices.
@@ -396,4 +399,4 @@ def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=No
         return None
     hi, cap = h[rows[bind]], np.abs(v_plan[bind])
     v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max)
-    return rows[bind], np.minimum(np.maximum(v, -cap), cap), w
+    return rows[bind], np.minimum(np.maximum(v, 0.0), cap), w

@@ -205,12 +205,12 @@ def test_in_a_narrow_lane_orca_keeps_the_velocity_inside_the_free_width(monkeypa
 
 
 def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it():
-    """A robot 0.32 m from a wall (0.02 m inside the line at ``radius + MARGIN_M``) heads 30
+    """A robot 0.32 m from a wall (0.02 m beyond the line at ``radius + MARGIN_M``) heads 30
     degrees into it at 1 m/s: its line binds, the forward speed it gets keeps the driven
-    velocity in the half-plane (here: backing away, at most BACK_SHARE of the top speed) and it
-    turns toward the velocity nearest its preferred one, along the wall, away from it. Heading
-    along the wall at 0.5 m from it, nothing binds: None (its plan stays)."""
-    from sim.control.orca import BACK_SHARE, MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, steer_walls
+    velocity in the half-plane (here: it stops; the wall program never backs) and it turns
+    toward the velocity nearest its preferred one, along the wall, away from it. Heading along
+    the wall at 0.5 m from it, nothing binds: None (its plan stays)."""
+    from sim.control.orca import MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, steer_walls
 
     radius, dist = 0.25, 0.32
     wall = lambda pts: np.full(len(pts), -1j * dist)  # noqa: E731  a wall below each robot
@@ -224,11 +224,42 @@ def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it(
     closing = -(v[0] * h[0]).imag  # toward the wall
     allowed = (dist - radius - MARGIN_M - WALL_GAP_M) / TAU_OBSTACLE_S
     assert closing <= allowed + 1e-12
-    assert -BACK_SHARE * 1.5 - 1e-12 <= v[0] <= 1.0
+    assert 0.0 <= v[0] <= 1.0
     assert w[0] > 0.0  # turns left, away from the wall below
     far = lambda pts: np.full(len(pts), -0.5j)  # noqa: E731
     flat = np.array([1.0 + 0j])
     assert steer_walls(np.array([0j]), flat, rows, np.array([1.0]), pref, radius, 1.5, far) is None
+
+
+def test_the_wall_program_never_backs_a_robot_up():
+    """The wall program has no robot half-planes, so it must not reverse: a robot backing off
+    a wall drove into the robot behind it (the robot-robot impacts of paper_spatial, robots
+    backing at 0.45 m/s). Robots 0.26 to 0.6 m from a wall (inside its line and beyond it),
+    facing it at every angle from head-on to along it, planning 0.2 to 1.5 m/s: every speed
+    the program sets is >= 0, and where the robot is inside the line (the line wants it to move
+    away) it stops and turns away from the wall."""
+    from sim.control.orca import MARGIN_M, steer_walls
+
+    radius = 0.25
+    dists = np.linspace(0.26, 0.6, 9)
+    angles = np.radians(np.linspace(-90.0, 0.0, 10))  # -90: straight at the wall below
+    d, a = (x.ravel() for x in np.meshgrid(dists, angles))
+    n = len(d)
+    z = np.arange(n) * 10.0 + 0j  # far apart: one wall point below each
+    wall = lambda pts: -1j * d[np.round(pts.real / 10.0).astype(int)] + 0j  # noqa: E731
+    h = np.exp(1j * a)
+    for speed in (0.2, 0.8, 1.5):
+        out = steer_walls(
+            z, h, np.arange(n), np.full(n, speed), np.full(n, 1.0 + 0j), radius, 1.5, wall
+        )
+        assert out is not None
+        sel, v, w = out
+        assert np.all(v >= 0.0)
+        inside = d[sel] < radius + MARGIN_M
+        into = np.sin(a[sel]) < -0.5  # facing the wall more than 30 degrees
+        stop = inside & into
+        assert stop.any() and np.all(v[stop] == 0.0)
+        assert np.all(w[stop] > 0.0)  # turning left, away from the wall below
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])

@@ -6,8 +6,9 @@ queue). :class:`StallMeter` counts those periods by cause: the site queue it hol
 nearest other robot within ``NEAR_M`` and what that robot does (the robot collision avoidance
 stops it for is not always the one a speed cap names, so the meter looks for itself). With collision
 avoidance on, this is where the time goes that avoidance costs (README, "Collision
-avoidance"): ``mrta run ... --json`` reports it under ``spatial`` as ``still_s_<cause>`` and the
-share of the driving time (``still_share``).
+avoidance"): ``mrta run`` prints it on one line and its ``metrics.json`` holds it under
+``spatial`` as ``still_s_<cause>``, ``driving_s`` and the share of the driving time
+(``still_share``).
 
 Causes (``CAUSES``): ``queue`` (holding for a place at its site), ``robot_at_work``,
 ``robot_idle`` (idle, stepping aside or driving out of a site), ``robot_head_on`` (a driving

@@ -34,9 +34,9 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # one line, exit 2 (argparse prints usage too; keep it short)
-        self.exit(
-            EXIT_USAGE, f"mrta: error: {message} (see 'mrta {self.prog.split()[-1]} --help')\n"
-        )
+        command = self.prog.split()[-1]  # "mrta" itself for unknown arguments of any command
+        hint = "mrta --help" if command == "mrta" else f"mrta {command} --help"
+        self.exit(EXIT_USAGE, f"mrta: error: {message} (see '{hint}')\n")
 
 
 def _seed_list(text: str) -> list[int]:

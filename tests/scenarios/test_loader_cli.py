@@ -110,7 +110,20 @@ def test_bad_arguments_exit_2(capsys):
     with pytest.raises(SystemExit) as info:
         main(["reproduce", "--seeds", "-4"])
     assert info.value.code == 2
-    assert "mrta: error:" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "mrta: error:" in err and "(see 'mrta reproduce --help')" in err
+    assert err.count("\n") == 1
+
+
+def test_unknown_argument_points_at_the_help_that_exists(capsys):
+    """argparse reports arguments no command knows from the top parser: the hint must not
+    read 'mrta mrta --help'."""
+    with pytest.raises(SystemExit) as info:
+        main(["run", "paper", "--sets", "0"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: --sets 0" in err and "(see 'mrta --help')" in err
+    assert "mrta mrta" not in err and err.count("\n") == 1
 
 
 def test_distance_cost_needs_spatial_scenario(capsys):

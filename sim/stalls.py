@@ -15,6 +15,11 @@ Causes (``CAUSES``): ``queue`` (holding for a place at its site), ``robot_at_wor
 robot heading more than 135 degrees away from its heading), ``robot_same_way`` (less than 45
 degrees), ``robot_crossing`` (between), ``no_robot`` (turning at a corner, braking for a wall,
 no robot within ``NEAR_M``).
+
+Where: given the arena's size, the meter also keeps a map, the standing periods by cause in
+square cells (``MAP_CELL_M``, coarser in a large arena so that the longer side has at most
+``MAP_MAX_CELLS``): :meth:`StallMeter.seconds_map`. ``mrta run`` draws it (``stalls.png``)
+and writes it (``stalls.npz``), and names the cells robots stood in longest.
 """
 
 from __future__ import annotations
@@ -31,6 +36,8 @@ NEAR_M = 1.2  # the nearest robot counts within this (centre distance), m
 DENSE_MAX = 64  # up to this many robots the nearest is found from all distances, else a k-d tree
 SMALL_MAX = 32  # up to this many robots a period is counted in plain Python (numpy's overhead)
 TREE_K = 9  # a large team: the robots looked at for the nearest (on a square grid 4 tie)
+MAP_CELL_M = 0.5  # side of a cell of the map of where robots stand, m ...
+MAP_MAX_CELLS = 128  # ... or coarser, so that the arena's longer side has at most this many
 CAUSES = (
     "queue",
     "robot_at_work",
@@ -50,12 +57,18 @@ class StallMeter:
 
     Args:
         period_s: the control period, s.
+        width_m, height_m: the arena, for the map of where robots stand (none without them).
     """
 
-    def __init__(self, period_s: float) -> None:
+    def __init__(self, period_s: float, width_m: float = 0.0, height_m: float = 0.0) -> None:
         self.period_s = period_s
         self.driving = 0  # robot-periods driving (state DRIVING)
         self.still = np.zeros(len(CAUSES), dtype=np.int64)  # robot-periods standing, by cause
+        self.cell_m = max(MAP_CELL_M, max(width_m, height_m) / MAP_MAX_CELLS)
+        nx = math.ceil(width_m / self.cell_m - 1e-9) if width_m > 0 else 0
+        ny = math.ceil(height_m / self.cell_m - 1e-9) if height_m > 0 else 0
+        # robot-periods standing by cause, cell (row: y, column: x)
+        self.map = np.zeros((len(CAUSES), ny, nx), dtype=np.int64)
 
     def sample(self, fleet, holding: np.ndarray) -> None:
         """Count one control period, after it set the commands (``fleet.v_cmd_mps``; positions
@@ -85,6 +98,9 @@ class StallMeter:
         cause = np.where(near, cause, _NONE)
         cause = np.where(holding[rows], _QUEUE, cause)
         self.still += np.bincount(cause, minlength=len(CAUSES))
+        if self.map.size:
+            iy, ix = self._cells(fleet.last_z_m[rows])
+            np.add.at(self.map, (cause, iy, ix), 1)
 
     def _sample_small(self, fleet, holding: np.ndarray) -> None:
         """:meth:`sample` robot by robot in plain Python (a small team): the same causes,
@@ -102,9 +118,10 @@ class StallMeter:
         if not rows:
             return
         z, th, hold = fleet.last_z_m.tolist(), fleet.last_th_rad.tolist(), holding.tolist()
+        causes = []
         for j in rows:
             if hold[j]:
-                self.still[_QUEUE] += 1
+                causes.append(_QUEUE)
                 continue
             zj, best, k = z[j], math.inf, -1
             for i, zi in enumerate(z):
@@ -125,7 +142,25 @@ class StallMeter:
                     if cos < _COS_HEAD_ON
                     else (_SAME_WAY if cos > _COS_SAME_WAY else _CROSSING)
                 )
+            causes.append(cause)
+        for cause in causes:
             self.still[cause] += 1
+        if self.map.size:
+            _, ny, nx = self.map.shape
+            inv = 1.0 / self.cell_m
+            for j, cause in zip(rows, causes, strict=True):
+                ix = min(max(int(z[j].real * inv), 0), nx - 1)
+                iy = min(max(int(z[j].imag * inv), 0), ny - 1)
+                self.map[cause, iy, ix] += 1
+
+    def _cells(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Map cells (row, column) of points ``z`` (x + iy, m); points outside the arena (a
+        robot pushed through a wall) count in the nearest cell at its border."""
+        _, ny, nx = self.map.shape
+        inv = 1.0 / self.cell_m
+        ix = np.clip((z.real * inv).astype(np.int64), 0, nx - 1)
+        iy = np.clip((z.imag * inv).astype(np.int64), 0, ny - 1)
+        return iy, ix
 
     def summary(self) -> dict[str, float]:
         """``still_s_<cause>`` (robot-seconds standing still while driving, by cause),
@@ -136,18 +171,31 @@ class StallMeter:
         out["still_share"] = float(self.still.sum() / max(self.driving, 1))
         return out
 
+    def seconds_map(self) -> np.ndarray:
+        """(causes, rows, columns) robot-seconds standing, by cause (``CAUSES``) and cell: the
+        cell of row r, column c spans x in [c, c + 1) and y in [r, r + 1) times ``cell_m``."""
+        return self.map * self.period_s
+
     def state_arrays(self) -> dict[str, np.ndarray]:
         """The counts since reset (checkpoints)."""
-        return {"driving": np.array(self.driving, dtype=np.int64), "still": self.still.copy()}
+        return {
+            "driving": np.array(self.driving, dtype=np.int64),
+            "still": self.still.copy(),
+            "map": self.map.copy(),
+        }
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
-        """Inverse of :meth:`state_arrays`; a checkpoint written before the meter existed
-        restores zero counts."""
+        """Inverse of :meth:`state_arrays`; a checkpoint written before the meter (or its map)
+        existed restores zero counts."""
         self.driving = int(arrays.get("driving", 0))
         still = np.asarray(arrays.get("still", np.zeros(len(CAUSES))), dtype=np.int64)
         if still.shape != (len(CAUSES),):
             raise ValueError(f"stalls/still: expected {len(CAUSES)} counts, got {still.shape}")
         self.still = still.copy()
+        where = np.asarray(arrays.get("map", np.zeros_like(self.map)), dtype=np.int64)
+        if where.shape != self.map.shape:
+            raise ValueError(f"stalls/map: expected shape {self.map.shape}, got {where.shape}")
+        self.map = where.copy()
 
 
 def nearest_other(z: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -145,16 +145,25 @@ def cmd_run(args) -> int:
     desc = f"run {spec.allocator} on {scenario.name}"
     with progress_bar(protocol_rounds(scenario), desc, "round", not args.no_progress) as bar:
         summary = execute(
-            spec, checkpoint=checkpoint, resume=args.resume, task_table=True, on_round=bar.update
+            spec,
+            checkpoint=checkpoint,
+            resume=args.resume,
+            task_table=True,
+            on_round=bar.update,
+            stall_map=True,
         )
     write_manifest(out, manifest)  # only once the run succeeded: a failed run leaves OUT as it was
     table = summary.pop("task_table")
+    stalls = summary.pop("stall_map", None)
+    places = ""
     if scenario.spatial is not None:
         from scenarios.experiments.figures import fig_run_spatial
         from scenarios.experiments.output import write_csv_atomic
 
         write_csv_atomic(out / "tasks.csv", table)
         fig_run_spatial(table, summary["spatial"], spec.cost, out / "spatial.png")
+    if stalls is not None:
+        places = write_stall_map(out, stalls, scenario.spatial)
     metrics = {
         "scenario": scenario.name,
         "cost_model": spec.cost,
@@ -177,7 +186,34 @@ def cmd_run(args) -> int:
 
         print(contact_line(summary["spatial"]).replace("\n", "; "))
         print(stall_line(summary["spatial"]))
+        if places:
+            print(places + f" (map: {out}/stalls.png, stalls.npz)")
     return 0
+
+
+def write_stall_map(out: Path, stalls: dict, spatial) -> str:
+    """``stalls.npz`` (``seconds``: robot-s standing by cause and cell, ``causes``, ``cell_m``,
+    ``arena_wh``) and ``stalls.png`` of a run; returns the line naming where robots stood
+    longest."""
+    import numpy as np
+
+    from scenarios.experiments.figures import fig_stall_map, places_line, stall_places
+    from scenarios.experiments.output import write_npz_atomic
+    from sim.stalls import CAUSES
+
+    seconds, cell_m = stalls["seconds"], float(stalls["cell_m"])
+    arena = (spatial.width_m, spatial.height_m)
+    write_npz_atomic(
+        out / "stalls.npz",
+        {
+            "seconds": seconds,
+            "causes": np.array(CAUSES),
+            "cell_m": np.array(cell_m),
+            "arena_wh": np.array(arena),
+        },
+    )
+    fig_stall_map(seconds, cell_m, arena, spatial.obstacles, out / "stalls.png")
+    return places_line(stall_places(seconds, cell_m), cell_m)
 
 
 def cmd_compare(args) -> int:

@@ -230,7 +230,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Play the paper protocol once. Writes metrics.json and run_manifest.json to "
         "--out; with --checkpoint also checkpoint.npz after every task set, which --resume "
         "continues from (the result equals an uninterrupted run). --replay repeats the run a "
-        "manifest describes and must give an identical metrics.json.",
+        "manifest describes and must give an identical metrics.json. A spatial scenario also "
+        "gives tasks.csv (one row per test-set task), spatial.png, and where driving robots "
+        "stood still: stalls.png (a map per cause) and stalls.npz (robot-seconds by cause and "
+        "cell; np.load(..., allow_pickle=False)).",
     )
     run.add_argument("scenario", nargs="?", help="scenario name or TOML path (not with --replay)")
     run.add_argument(

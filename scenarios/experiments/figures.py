@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.contacts import IMPACT_MPS
-from sim.stalls import STILL_MPS
+from sim.stalls import CAUSES, STILL_MPS
 
 ALLOCATOR_COLOURS = {"market": "#4c72b0", "ql": "#dd8452", "expt": "#55a868"}
 ALLOCATOR_LABELS = {"market": "Market (MRTA)", "ql": "QL-MRTA", "expt": "ExpT-MRTA"}
@@ -347,6 +347,91 @@ def stall_line(spatial: dict) -> str:
         f"driving robots stood still (below {STILL_MPS:g} m/s) {spatial['still_share']:.1%} of "
         f"{spatial['driving_s']:,.0f} robot-s driving" + (f": {parts}" if parts else "")
     )
+
+
+STALL_GROUPS = (  # the panels of the stall map: a title and the causes (sim.stalls.CAUSES) in it
+    ("meeting a driving robot", ("robot_head_on", "robot_crossing", "robot_same_way")),
+    ("beside a robot at work or idle", ("robot_at_work", "robot_idle")),
+    ("holding in a site's queue", ("queue",)),
+    ("no robot near (corners, walls)", ("no_robot",)),
+)
+
+
+def stall_places(seconds: np.ndarray, cell_m: float, k: int = 3) -> list[dict]:
+    """The ``k`` cells of a stall map (``sim.stalls.StallMeter.seconds_map``) where driving
+    robots stood longest, longest first (ties: lower row, then column): each cell's lower-left
+    corner ``x_m``, ``y_m``, its standing ``seconds`` and the ``cause`` with most of them."""
+    total = seconds.sum(axis=0)
+    flat = total.ravel()
+    order = np.lexsort((np.arange(flat.size), -flat))[:k]
+    out = []
+    for idx in order.tolist():
+        if flat[idx] <= 0:
+            break
+        row, col = divmod(idx, total.shape[1])
+        out.append(
+            {
+                "x_m": col * cell_m,
+                "y_m": row * cell_m,
+                "seconds": float(flat[idx]),
+                "cause": CAUSES[int(np.argmax(seconds[:, row, col]))],
+            }
+        )
+    return out
+
+
+def places_line(places: list[dict], cell_m: float) -> str:
+    """:func:`stall_places` on one line (empty if robots never stood)."""
+    if not places:
+        return ""
+    parts = [
+        f"x {p['x_m']:g}-{p['x_m'] + cell_m:g} y {p['y_m']:g}-{p['y_m'] + cell_m:g} m "
+        f"{p['seconds']:,.0f} s (mostly {p['cause'].replace('_', ' ')})"
+        for p in places
+    ]
+    return "stood longest at " + "; ".join(parts)
+
+
+def fig_stall_map(
+    seconds: np.ndarray,
+    cell_m: float,
+    arena_wh: tuple[float, float],
+    obstacles,
+    path: Path | None = None,
+):
+    """Where driving robots stood still, one panel per group of causes (``STALL_GROUPS``):
+    robot-seconds per cell over the arena, obstacles in grey, cells with none left blank."""
+    import matplotlib as mpl
+    from matplotlib.colors import LogNorm
+    from matplotlib.patches import Polygon
+
+    width, height = arena_wh
+    _, ny, nx = seconds.shape
+    extent = (0.0, nx * cell_m, 0.0, ny * cell_m)
+    groups = [
+        (title, seconds[[CAUSES.index(c) for c in causes]].sum(axis=0))
+        for title, causes in STALL_GROUPS
+    ]
+    top = max(float(g.max()) for _, g in groups)
+    norm = LogNorm(vmin=0.1, vmax=max(top, 1.0))
+    aspect = height / max(width, 1e-9)
+    with mpl.rc_context(STYLE):
+        fig = new_figure(10.0, 10.0 * aspect * 0.95 + 1.2)
+        axes = fig.subplots(2, 2).ravel()
+        for ax, (title, grid) in zip(axes, groups, strict=True):
+            shown = np.ma.masked_less_equal(grid, 0.0)
+            image = ax.imshow(
+                shown, origin="lower", extent=extent, cmap="magma_r", norm=norm, gid=title
+            )
+            for poly in obstacles:
+                ax.add_patch(Polygon(np.asarray(poly), closed=True, color="0.7", lw=0))
+            ax.set(xlim=(0, width), ylim=(0, height), aspect="equal")
+            ax.set_title(f"{title}: {grid.sum():,.0f} robot-s")
+            ax.tick_params(labelsize=8)
+        fig.colorbar(image, ax=list(axes), shrink=0.8, label=f"robot-s per {cell_m:g} m cell")
+        fig.suptitle(f"Where driving robots stood still (commanded below {STILL_MPS:g} m/s)")
+    save_figure(fig, path)
+    return fig
 
 
 def fig_faults_run(faults: dict, path: Path | None = None):

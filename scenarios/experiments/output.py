@@ -13,6 +13,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 
 def write_csv_atomic(path: Path, columns: dict[str, list]) -> None:
     """Write equal-length columns as CSV (``tasks.csv``) via a temporary file and a rename."""
@@ -54,6 +56,22 @@ def write_json_atomic(path: Path, doc: Any) -> None:
     with tmp.open("w") as fh:
         json.dump(strict_json(doc), fh, indent=1, allow_nan=False)
         fh.write("\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+
+
+def write_npz_atomic(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write arrays to an ``.npz`` via a temporary file and rename; no object arrays, so it
+    loads with ``allow_pickle=False``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.npz")
+    for name, value in arrays.items():
+        if np.asarray(value).dtype == object:
+            raise TypeError(f"{path.name}/{name}: object arrays need pickle")
+    with tmp.open("wb") as fh:
+        np.savez_compressed(fh, **arrays)
         fh.flush()
         os.fsync(fh.fileno())
     os.replace(tmp, path)

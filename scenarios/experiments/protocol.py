@@ -140,6 +140,7 @@ def execute(
     recorder=None,
     task_table: bool = False,
     on_round=None,
+    stall_map: bool = False,
 ) -> dict:
     """Run one spec and return its JSON-able summary (plus the fig. 2 trace when asked).
 
@@ -149,6 +150,8 @@ def execute(
             that of an uninterrupted run.
         recorder: a ``sim.recording.TrajectoryRecorder`` (spatial worlds) to fill.
         task_table: add ``"task_table"``, one row per test-phase task that was allocated.
+        stall_map: add ``"stall_map"`` (spatial worlds): ``cell_m`` and ``seconds``, where
+            driving robots stood still, by cause (``sim.stalls.StallMeter.seconds_map``).
         on_round: called after every announcement round (progress bars).
     """
     scenario, stream, world, cost, allocator, rng = build_run(spec)
@@ -195,6 +198,9 @@ def execute(
             **world.summary(record),
         }
         out["per_robot"] = spatial_per_robot(scenario, record)
+        stalls = getattr(world, "stalls", None)
+        if stall_map and stalls is not None:
+            out["stall_map"] = {"cell_m": stalls.cell_m, "seconds": stalls.seconds_map()}
     if spec.trace_robot and record.trace_u:
         j = [r.name for r in scenario.robots].index(spec.trace_robot)
         learn_rounds = len(record.learn.task_ids)

@@ -194,6 +194,36 @@ def test_spatial_run_killed_five_times_resumes_to_identical_outputs(tmp_path):
     assert len(set(sets_seen)) == 5, sets_seen  # every kill after new progress
     for name in ("metrics.json", "tasks.csv"):
         assert (out / name).read_bytes() == (straight / name).read_bytes(), name
+    with np.load(out / "stalls.npz") as a, np.load(straight / "stalls.npz") as b:
+        assert np.array_equal(a["seconds"], b["seconds"])  # the map went through the checkpoints
+        assert a["seconds"].sum() > 0
+
+
+def test_run_writes_where_robots_stood_and_it_adds_up(tmp_path, capsys):
+    """``mrta run`` on a spatial scenario writes ``stalls.npz`` (loads without pickle) whose
+    cells add up, cause by cause, to the standing seconds in ``metrics.json``; ``stalls.png``
+    beside it; and the line naming the cell robots stood in longest is that of the map."""
+    from scenarios.cli import main
+    from scenarios.experiments.figures import stall_places
+    from sim.stalls import CAUSES
+
+    out = tmp_path / "run"
+    scenario = str(small_spatial(tmp_path, n_sets=4, rounds=6))
+    assert main(["run", scenario, "--allocator", "market", "--no-progress", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    metrics = json.loads((out / "metrics.json").read_text())
+    spatial = metrics["allocators"]["market"]["spatial"]
+    with np.load(out / "stalls.npz", allow_pickle=False) as data:
+        seconds, causes, cell = data["seconds"], data["causes"].tolist(), float(data["cell_m"])
+        assert data["arena_wh"].tolist() == [20.0, 20.0]  # paper_spatial's arena
+    assert causes == list(CAUSES)
+    per_cause = seconds.sum(axis=(1, 2))
+    for k, name in enumerate(CAUSES):
+        assert per_cause[k] == pytest.approx(spatial[f"still_s_{name}"], abs=1e-6), name
+    assert per_cause.sum() > 0
+    (top,) = stall_places(seconds, cell, k=1)
+    assert f"stood longest at x {top['x_m']:g}-{top['x_m'] + cell:g} y {top['y_m']:g}" in printed
+    assert (out / "stalls.png").stat().st_size > 10_000
 
 
 def test_rebuild_frees_the_old_space_and_reuses_the_batch_buffers(tmp_path):

@@ -194,3 +194,30 @@ def test_avoidance_on_a_scenario_without_space_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and not out.exists()
     assert "override 'spatial.avoidance': 'paper' has no [spatial] table" in err
+
+
+def test_stall_places_are_the_longest_cells_and_the_panels_their_groups():
+    """``stall_places`` against brute force over a random map (ties by row, then column;
+    empty cells never named); each panel of ``fig_stall_map`` draws the sum of its causes."""
+    from scenarios.experiments.figures import STALL_GROUPS, fig_stall_map, stall_places
+    from sim.stalls import CAUSES
+
+    rng = np.random.default_rng(7)
+    seconds = rng.integers(0, 4, size=(len(CAUSES), 6, 9)).astype(float) * 0.5
+    seconds[:, 2, 3] = seconds[:, 4, 1] = 0.0
+    seconds[0, 2, 3] = seconds[0, 4, 1] = 99.0  # a tie: row 2 comes first
+    cells = sorted(
+        ((-seconds[:, r, c].sum(), r, c) for r in range(6) for c in range(9)),
+    )
+    got = stall_places(seconds, 0.5, k=5)
+    assert [(p["y_m"], p["x_m"]) for p in got] == [(r * 0.5, c * 0.5) for _, r, c in cells[:5]]
+    assert got[0]["seconds"] == 99.0 and got[0]["cause"] == CAUSES[0]
+    assert (got[0]["y_m"], got[0]["x_m"]) == (1.0, 1.5)
+    one = np.zeros((len(CAUSES), 6, 9))
+    one[3, 5, 8] = 1.0
+    assert [p["x_m"] for p in stall_places(one, 0.5, k=3)] == [4.0]  # empty cells are not named
+    fig = fig_stall_map(seconds, 0.5, (4.5, 3.0), [((1.0, 1.0), (2.0, 1.0), (2.0, 2.0))])
+    drawn = {im.get_gid(): im.get_array() for ax in fig.axes for im in ax.get_images()}
+    for title, causes in STALL_GROUPS:
+        want = seconds[[CAUSES.index(c) for c in causes]].sum(axis=0)
+        assert np.array_equal(np.ma.filled(drawn[title], 0.0), want), title

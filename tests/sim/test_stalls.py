@@ -99,16 +99,47 @@ def test_nearest_other_in_a_large_team_is_the_nearest():
         assert np.all(dist[~close] >= NEAR_M) and np.all(other != rows)
 
 
+def test_the_map_puts_each_still_period_in_the_cell_of_its_robot(counting):
+    """The map holds exactly the counted periods, by cause, in the 0.5 m cell of the robot's
+    centre (a robot pushed outside the arena counts in the border cell); without an arena
+    there is no map, and a large arena gets cells coarse enough for ``MAP_MAX_CELLS``."""
+    from sim.stalls import MAP_MAX_CELLS
+
+    d, w = DRIVING, WORKING
+    state = [d, d, w, d, d, d]
+    v = [0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+    xy = [(1.26, 2.74), (4.0, 4.0), (4.6, 4.0), (-0.3, 9.9), (11.0, 9.99), (5.0, 5.0)]
+    th = [0.0] * 6
+    holding = np.array([True, False, False, False, False, False])
+    meter = StallMeter(0.1, 10.0, 8.0)
+    assert meter.map.shape == (len(CAUSES), 16, 20) and meter.cell_m == 0.5
+    for _ in range(3):
+        meter.sample(_fleet(state, v, xy, th), holding)
+    assert np.array_equal(meter.map.sum(axis=(1, 2)), meter.still)
+    cells = np.argwhere(meter.map)
+    at = {(int(c), int(r), int(k)): int(meter.map[c, r, k]) for c, r, k in cells}
+    q, work, none = CAUSES.index("queue"), CAUSES.index("robot_at_work"), CAUSES.index("no_robot")
+    assert at == {(q, 5, 2): 3, (work, 8, 8): 3, (none, 15, 0): 3, (none, 15, 19): 3}  # row: y
+    assert meter.seconds_map()[work, 8, 8] == pytest.approx(0.3)
+    assert StallMeter(0.1).map.size == 0
+    big = StallMeter(0.1, 1000.0, 250.0)
+    assert big.map.shape[1:] == (32, MAP_MAX_CELLS) and big.cell_m == pytest.approx(1000 / 128)
+
+
 def test_counts_survive_a_checkpoint_and_old_checkpoints_restore_zero():
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, 3.0, 2.0)
     meter.driving, meter.still[:] = 12, np.arange(len(CAUSES))
-    other = StallMeter(0.1)
+    meter.map[2, 1, 4] = 7
+    other = StallMeter(0.1, 3.0, 2.0)
     other.restore_arrays(meter.state_arrays())
     assert other.driving == 12 and other.still.tolist() == list(range(len(CAUSES)))
+    assert np.array_equal(other.map, meter.map) and other.map is not meter.map
     other.restore_arrays({})  # written before the meter existed
-    assert other.driving == 0 and not other.still.any()
+    assert other.driving == 0 and not other.still.any() and not other.map.any()
     with pytest.raises(ValueError, match="stalls/still"):
         other.restore_arrays({"driving": np.array(1), "still": np.zeros(3)})
+    with pytest.raises(ValueError, match="stalls/map"):
+        other.restore_arrays({"driving": np.array(1), "map": np.zeros((len(CAUSES), 2, 2))})
 
 
 def test_head_on_in_a_single_lane_is_counted_as_head_on():

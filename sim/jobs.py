@@ -18,6 +18,7 @@ from sim.paths import PathFollower
 from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import SpatialSpec
+from sim.stalls import NEAR_M, STILL_MPS, nearest_other
 from sim.tasks import Batch
 from sim.world import Abandon, Completion
 
@@ -39,6 +40,8 @@ HOLD_MAX_S = 300.0  # a robot may hold in a site's queue this long before its ta
 AROUND_M = 3.0  # avoidance on: a stuck robot plans round the robots this close (centres), m
 DETOUR_FACTOR = 3.0  # ... and takes that path if at most this times the path it had ...
 DETOUR_EXTRA_M = 10.0  # ... plus this, m
+PASS_S = 2.0  # avoidance on: a robot stood this long beside a robot at work at another site ...
+PASS_EXTRA_M = 3.0  # ... plans round it, and takes that path if at most this much longer, m
 
 
 class Jobs:
@@ -398,6 +401,49 @@ class Jobs:
         f.progress_m[j], f.t_progress_s[j] = np.inf, t
         self.refresh()
         return True
+
+    def pass_workers(self, t: float) -> None:
+        """Collision avoidance on, after a control period: a driving robot commanded to stand
+        (below ``STILL_MPS``; not holding in a queue, backing off or replanning) for
+        ``PASS_S`` since its last progress, whose nearest robot is within ``NEAR_M`` and at
+        work at another service point with more than ``PASS_S`` of work left, plans round the
+        robots within ``AROUND_M`` (``GridPlanner.path_around``) and takes that path if it is
+        longer than the path it has left (else no robot is in its way: it stands for another
+        reason, such as turning) by at most ``PASS_EXTRA_M``, and the extra drive at top speed
+        takes less than the work left. Not a recovery try: waiting beside a robot at
+        work that is in the way is not being stuck, only slow (README, "Collision
+        avoidance"); a robot that does not take the path is asked again in the next period."""
+        f = self.fleet
+        if t - float(f.t_progress_s.min()) < PASS_S:
+            return
+        still = (f.state == DRIVING) & (np.abs(f.v_cmd_mps) < STILL_MPS) & ~self.holding
+        still &= ~f.replan & (f.backoff_until_s <= t) & (t - f.t_progress_s >= PASS_S)
+        rows = still.nonzero()[0]
+        if not len(rows):
+            return
+        z = f.last_z_m
+        other, dist = nearest_other(z, rows)
+        v_max, radius = self.follower.v_max_mps, self.controller.radius_m
+        for j, k, d in zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True):
+            if d >= NEAR_M or f.state[k] != WORKING:
+                continue
+            if abs(self.service[j] - self.service[k]) < 1e-6:  # its own site: wait its turn
+                continue
+            left_s = f.work_end_s[k] - t
+            if left_s <= PASS_S:
+                continue
+            close = np.abs(z - z[j]) < AROUND_M
+            close[j] = False
+            site = (f.site[j].real, f.site[j].imag)
+            path = self.planner.path_around((z[j].real, z[j].imag), site, z[close], radius)
+            if not len(path):
+                continue
+            extra = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) - f.left_m[j]
+            if extra <= PROGRESS_M or extra > PASS_EXTRA_M or extra / v_max >= left_s:
+                continue  # the way it has (no robot in it), too long, or slower than waiting
+            self.follower.set_path(j, path)
+            f.progress_m[j], f.t_progress_s[j] = np.inf, t
+            self.refresh()
 
     def give_way(self, j: int, t: float) -> bool:
         """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot

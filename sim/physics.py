@@ -438,6 +438,8 @@ class PymunkWorld:
                 self.recorder.poses(t, xy, f.last_th_rad, shown)
             return
         self.control.period(t)
+        if self.jobs.clear_sites:
+            self.jobs.pass_workers(t)
         self.stalls.sample(f, self.jobs.holding)
         if self.recorder is not None:
             shown = shown_states(f.state, f.t_progress_s, t)

@@ -972,3 +972,54 @@ def test_step_clear_skips_a_broken_robot_and_serves_the_next():
     w.jobs.step_clear([0, 1], 3.0)  # robot 0 cannot move; robot 1 still steps clear
     assert w.fleet.yielding.tolist() == [False, True]
     assert w.follower.last[0] == -1 and len(waypoints(w, 1)) == 2
+
+
+def _gap_world(second_gap_y: float):
+    """A wall across a 12 x 8 m arena at x = 6 with a 1.4 m gap at y = 3, where a robot works
+    (1000 s), and a second gap centred at ``second_gap_y``; robot 0 drives from (3, 3) to
+    (9, 3), straight through the first gap (the planner ignores robots)."""
+    from sim.hardcases import swap_world
+
+    lo, hi = second_gap_y - 0.7, second_gap_y + 0.7
+    walls = [((5.9, a), (6.1, a), (6.1, b), (5.9, b)) for a, b in [(0, 2.3), (3.7, lo), (hi, 8)]]
+    starts, goals = [(3.0, 3.0), (6.0, 3.0)], [(9.0, 3.0), (6.0, 3.0)]
+    return swap_world(starts, goals, (12.0, 8.0), "auto", "orca", walls)
+
+
+def _arrive(world) -> tuple[float, float]:
+    """When robot 0 starts work at its site (inf: not within 60 s), and the highest it went."""
+    from sim.hardcases import time_to_all_arrive
+
+    top = [0.0]
+
+    def watch(w):
+        top[0] = max(top[0], float(w.fleet.last_z_m[0].imag))
+
+    t = time_to_all_arrive(world, 60.0, lambda w: w.fleet.state[0] == WORKING, watch)
+    return t, top[0]
+
+
+def test_a_robot_beside_one_at_work_at_another_site_goes_round_it_without_a_try(monkeypatch):
+    """The worker fills the gap (0.45 m either side, a robot needs 0.7): robot 0 stands
+    beside it, and ``PASS_S`` later (not the stuck timeout) takes the way through the other
+    gap, 2.3 m longer, without spending a recovery try; with the rule off it waits for the
+    stuck timeout and then goes round, spending one. Where the only way round is more than
+    ``PASS_EXTRA_M`` longer the rule leaves every robot exactly as it was."""
+    import sim.jobs
+
+    pass_s = sim.jobs.PASS_S
+    runs = {}
+    for rule in (True, False):
+        monkeypatch.setattr(sim.jobs, "PASS_S", pass_s if rule else 1e9)
+        for gap_y in (5.0, 6.9):
+            world = _gap_world(gap_y)
+            runs[rule, gap_y] = world, *_arrive(world)
+    (on, t_on, top_on), (off, t_off, top_off) = runs[True, 5.0], runs[False, 5.0]
+    assert top_on > 4.3 and top_off > 4.3  # both through the second gap in the end
+    assert on.fleet.recoveries[0] == 0 and off.fleet.recoveries[0] == 1
+    stuck_s = on.spatial.stuck_timeout_s
+    assert t_off - t_on > stuck_s - pass_s - 2.0  # the wait it saves, less the turns
+    (far, t_far, _), (far_off, t_far_off, _) = runs[True, 6.9], runs[False, 6.9]
+    assert np.isfinite(t_far) and t_far == t_far_off
+    assert np.array_equal(far.fleet.last_z_m, far_off.fleet.last_z_m)
+    assert far.fleet.recoveries.tolist() == far_off.fleet.recoveries.tolist() == [1, 0]

@@ -149,10 +149,18 @@ def test_a_folder_named_like_a_bundled_scenario_does_not_shadow_it(tmp_path, mon
 
 
 def test_bundled_files_are_listed_per_folder():
-    assert bundled_names() == ["large", "paper", "paper_spatial", "scale1000", "warehouse"]
+    assert bundled_names() == [
+        "large",
+        "paper",
+        "paper_spatial",
+        "scale1000",
+        "warehouse",
+        "warehouse_wide",
+    ]
     assert bundled_toml() == bundled_names()
     assert bundled_toml("sweeps") == [
         "avoidance",
+        "avoidance_wide",
         "delta_u",
         "experience",
         "faults",
@@ -175,7 +183,7 @@ def test_locate_takes_paths_as_given_and_names_from_the_bundle(tmp_path):
 
 
 def test_unknown_names_list_the_bundle_and_suggest():
-    bundled = "(bundled: large, paper, paper_spatial, scale1000, warehouse)"
+    bundled = "(bundled: large, paper, paper_spatial, scale1000, warehouse, warehouse_wide)"
     with pytest.raises(ScenarioError) as info:
         resolve("nope")
     assert str(info.value) == f"nope: no such scenario file or bundled scenario {bundled}"

@@ -13,7 +13,7 @@ from scenarios.loader import ScenarioError, load_scenario, parse_scenario
 from sim.physics import PymunkWorld
 from sim.tasks import Batch
 
-SPATIAL = ["paper_spatial", "warehouse", "large"]
+SPATIAL = ["paper_spatial", "warehouse", "warehouse_wide", "large"]
 
 
 def doc(name: str = "paper_spatial") -> dict:
@@ -315,3 +315,18 @@ def test_collision_slop_of_5_cm_is_refused():
     d = doc()
     d["spatial"]["collision_slop_m"] = 0.05
     fails(d, "x.toml: spatial.collision_slop_m: must be below 0.05 m")
+
+
+def test_warehouse_wide_differs_from_the_warehouse_only_in_its_cross_aisle():
+    """The variant behind ``mrta sweep avoidance_wide``: every key the same as warehouse.toml
+    except the name, the description and the shelf ends at the cross aisle (x 9.5 -> 9.2 and
+    10.5 -> 10.8: a 1.6 m aisle where the warehouse has 1 m)."""
+    narrow, wide = doc("warehouse"), doc("warehouse_wide")
+    for key in ("name", "description"):
+        assert narrow["scenario"].pop(key) != wide["scenario"].pop(key)
+    moved = {9.5: 9.2, 10.5: 10.8}
+    polys = narrow["spatial"].pop("obstacles")
+    assert sum(x in moved for poly in polys for x, _ in poly) == 20  # 10 shelves, 2 corners each
+    shelves = [[[moved.get(x, x), y] for x, y in poly] for poly in polys]
+    assert shelves == wide["spatial"].pop("obstacles")
+    assert narrow == wide

@@ -406,7 +406,8 @@ class Jobs:
         """Collision avoidance on, after a control period: a driving robot commanded to stand
         (below ``STILL_MPS``; not holding in a queue, backing off or replanning) for
         ``PASS_S`` since its last progress, whose nearest robot is within ``NEAR_M`` and at
-        work at another service point with more than ``PASS_S`` of work left, plans round the
+        work for another site with more than ``PASS_S`` of work left, plans its way to its
+        place (``fleet.site``: the service point, or the slot it was let in to) round the
         robots within ``AROUND_M`` (``GridPlanner.path_around``) and takes that path if it is
         longer than the path it has left (else no robot is in its way: it stands for another
         reason, such as turning) by at most ``PASS_EXTRA_M``, and the extra drive at top speed
@@ -427,8 +428,8 @@ class Jobs:
         for j, k, d in zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True):
             if d >= NEAR_M or f.state[k] != WORKING:
                 continue
-            if abs(self.service[j] - self.service[k]) < 1e-6:  # its own site: wait its turn
-                continue
+            if abs(self.service[j] - self.service[k]) < 1e-6:  # k works at j's site: the
+                continue  # site's queue decides (service: the site; f.site: the place to go)
             left_s = f.work_end_s[k] - t
             if left_s <= PASS_S:
                 continue

@@ -1023,3 +1023,29 @@ def test_a_robot_beside_one_at_work_at_another_site_goes_round_it_without_a_try(
     assert np.isfinite(t_far) and t_far == t_far_off
     assert np.array_equal(far.fleet.last_z_m, far_off.fleet.last_z_m)
     assert far.fleet.recoveries.tolist() == far_off.fleet.recoveries.tolist() == [1, 0]
+
+
+def test_going_round_skips_a_robot_at_work_for_the_same_site(monkeypatch):
+    """The rule leaves a robot alone whose neighbour at work works for the robot's own site
+    (the site's queue and slots decide who goes where), and re-plans it, through the second
+    gap, when that robot works for another site: the same moment, called directly."""
+    import sim.jobs
+
+    monkeypatch.setattr(sim.jobs, "PASS_S", 1e9)  # the rule off while the robot comes up
+    world = _gap_world(5.0)
+    while world.time_s < 10.0:
+        world.advance(0.1)
+    f, jobs, t = world.fleet, world.jobs, world.time_s
+    assert f.state[0] == DRIVING and f.state[1] == WORKING
+    assert abs(f.v_cmd_mps[0]) < 0.1 and t - f.t_progress_s[0] >= 2.0
+    monkeypatch.setattr(sim.jobs, "PASS_S", 2.0)
+    before, clock = waypoints(world, 0).copy(), f.t_progress_s[0]
+    own = jobs.service[0]
+    jobs.service[0] = jobs.service[1]  # as if both worked for one site
+    jobs.pass_workers(t)
+    assert np.array_equal(waypoints(world, 0), before) and f.t_progress_s[0] == clock
+    jobs.service[0] = own
+    jobs.pass_workers(t)
+    after = waypoints(world, 0)
+    assert f.t_progress_s[0] == t and after.imag.max() > 4.3  # through the second gap
+    assert f.recoveries[0] == 0

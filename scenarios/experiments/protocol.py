@@ -229,7 +229,10 @@ def _resume(spec: RunSpec, checkpoint: Path | None, allocator, world, rng):
         raise CheckpointError(f"{checkpoint}: written by another run (spec {meta.get('spec')})")
     restore_allocator(allocator, arrays, meta)
     world.reset(rng)
-    world.restore_arrays({k[6:]: v for k, v in arrays.items() if k.startswith("world/")})
+    try:  # a checkpoint whose world arrays do not fit this world (edited or damaged)
+        world.restore_arrays({k[6:]: v for k, v in arrays.items() if k.startswith("world/")})
+    except (ValueError, KeyError) as exc:
+        raise CheckpointError(f"{checkpoint}: world/{exc}") from None
     rng.bit_generator.state = meta["world_rng_state"]
     return int(meta["phase"]), int(meta["set_pos"]), record_from_arrays(arrays)
 

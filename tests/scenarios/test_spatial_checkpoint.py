@@ -239,3 +239,24 @@ def test_rebuild_frees_the_old_space_and_reuses_the_batch_buffers(tmp_path):
     world.rebuild()
     assert old() is None
     assert (world.motors.buf_, world.contacts.buf_) == buffers
+
+
+def test_a_checkpoint_whose_world_does_not_fit_is_one_line_and_exit_2(tmp_path, capsys):
+    """A damaged checkpoint (the stall map of another arena) stops ``--resume`` with one line
+    naming the file and the array, exit code 2, and leaves the outputs as they were."""
+    from learning.checkpoint import save_checkpoint
+    from scenarios.cli import main
+
+    out = tmp_path / "run"
+    scenario = str(small_spatial(tmp_path, n_sets=4, rounds=4))
+    args = ["run", scenario, "--allocator", "market", "--no-progress", "--out", str(out)]
+    assert main([*args, "--checkpoint"]) == 0
+    arrays, meta = load_checkpoint(out / "checkpoint.npz")
+    arrays["world/stalls/map"] = np.zeros((7, 3, 3), dtype=np.int64)
+    save_checkpoint(out / "checkpoint.npz", arrays, meta)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    capsys.readouterr()
+    assert main([*args, "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "checkpoint.npz: world/stalls/map: expected shape" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before

@@ -448,26 +448,29 @@ class Jobs:
 
     def give_way(self, j: int, t: float) -> bool:
         """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot
-        j and the driving robots within ``DEADLOCK_M``, the one with the highest index whose
-        way back is free (:meth:`backed_in`; the highest index if none is) goes back to
-        ``DEADLOCK_M`` beyond where it was given its task (or there, if that is not free) and
-        only then on to its site, so the others get through; the others wait. A robot with
-        another right behind it cannot back out: choosing it would leave the jam as it was.
-        True if j gave way or waits."""
+        j and the driving robots within ``DEADLOCK_M``, the one with the highest index that can
+        back out (:meth:`backed_in`: its way back is free; and it has tries left; the highest
+        index if none can) goes back to ``DEADLOCK_M`` beyond where it was given its task (or
+        there, if that is not free) and only then on to its site, so the others get through;
+        the others wait. A robot with another in its way back cannot back out: choosing it
+        would leave the jam as it was. Giving way is a try (``max_recoveries``): a robot chosen
+        again and again while it cannot move (a robot that waits for it boxes it in) is not
+        chosen once its tries are used, so the choice passes to another, and the wait is
+        bounded. True if j gave way or waits."""
         f, z = self.fleet, self.fleet.last_z_m
         close = (f.state == DRIVING) & ~self.holding & (np.abs(z - z[j]) < DEADLOCK_M)
         close[j] = False
         if not close.any():
             return False
         jam = np.append(close.nonzero()[0], j)
-        free = [k for k in jam.tolist() if not self.backed_in(k)]
+        tries = self.spatial.max_recoveries
+        free = [k for k in jam.tolist() if f.recoveries[k] < tries and not self.backed_in(k)]
         if j != max(free or jam.tolist()):
             f.t_progress_s[j] = t  # the other one gives way: wait for it
             return True
-        away = self.origin[j] - z[j]  # back past where it started, by DEADLOCK_M
-        refuge = self.origin[j] + DEADLOCK_M * away / max(abs(away), 1e-9)
-        if not self.planner.free(np.array([[refuge.real, refuge.imag]]))[0]:
-            refuge = self.origin[j]
+        if f.recoveries[j] >= tries:
+            return False
+        refuge = self.refuge(j)
         xy, spot = (z[j].real, z[j].imag), (refuge.real, refuge.imag)
         back = self.planner.path(xy, spot)
         on = self.planner.path(spot, (f.site[j].real, f.site[j].imag))
@@ -479,20 +482,49 @@ class Jobs:
         self.refresh()
         return True
 
+    def refuge(self, j: int) -> complex:
+        """Where robot j backs out to when it gives way: ``DEADLOCK_M`` beyond where it was
+        given its task, away from where it is (that place itself if the point is not free)."""
+        z = self.fleet.last_z_m[j]
+        away = self.origin[j] - z
+        refuge = self.origin[j] + DEADLOCK_M * away / max(abs(away), 1e-9)
+        if not self.planner.free(np.array([[refuge.real, refuge.imag]]))[0]:
+            refuge = self.origin[j]
+        return refuge
+
     def backed_in(self, j: int) -> bool:
-        """True if another robot stands in robot j's way back toward where it was given its
-        task (:meth:`give_way` sends it there): its centre less than ``DEADLOCK_M`` along that
-        way and less than two radii plus ``SLOT_GAP_M`` to the side of it."""
+        """True if another robot stands in robot j's way back: within two radii plus
+        ``SLOT_GAP_M`` of the first ``DEADLOCK_M`` of the path toward its :meth:`refuge`, and
+        nearest to a point of it more than a radius along (past j's own body) and short of
+        that stretch's end: a robot beside j, in front of it or beyond that stretch is not in
+        the way. The way is the planned path, which in a narrow place can leave in another
+        direction than the straight line back (its first leg may be a short step sideways onto
+        the planner's free space); the straight line where no path is found."""
         f, r = self.fleet, self.controller.radius_m
         z = f.last_z_m
-        back = self.origin[j] - z[j]
-        if abs(back) < 1e-9:
+        refuge = self.refuge(j)
+        if abs(refuge - z[j]) < 1e-9:
             return False
-        rel = (z - z[j]) * (back / abs(back)).conjugate()  # x along the way back
-        behind = (rel.real > 0.0) & (rel.real < DEADLOCK_M)
-        behind &= np.abs(rel.imag) < 2.0 * r + SLOT_GAP_M
-        behind[j] = False
-        return bool(behind.any())
+        path = self.planner.path((z[j].real, z[j].imag), (refuge.real, refuge.imag))
+        way = path @ np.array([1.0, 1j]) if len(path) >= 2 else np.array([z[j], refuge])
+        way[0] = z[j]
+        seg = np.diff(way)
+        keep = np.abs(seg) > 1e-12
+        way, seg = np.append(way[:1], way[1:][keep]), seg[keep]
+        if not len(seg):
+            return False
+        start = np.concatenate([[0.0], np.cumsum(np.abs(seg))[:-1]])
+        take = start < DEADLOCK_M  # the segments of the first DEADLOCK_M of the way
+        a, d, s0 = way[:-1][take], seg[take], start[take]
+        others = np.delete(np.arange(len(z)), j)
+        rel = (z[others, None] - a[None, :]) / d[None, :]  # in each segment's frame, / length
+        u = np.clip(rel.real, 0.0, 1.0)
+        dist = np.abs(z[others, None] - (a[None, :] + u * d[None, :]))
+        best = dist.argmin(axis=1)
+        rows = np.arange(len(others))
+        along = s0[best] + u[rows, best] * np.abs(d[best])
+        near = dist[rows, best] < 2.0 * r + SLOT_GAP_M
+        return bool((near & (along > r) & (along < DEADLOCK_M)).any())
 
     def take_slots(self, rows: list[int], z: np.ndarray, t: float) -> None:
         """Robots ``rows`` are near their site and not there: where a standing robot takes the

@@ -784,13 +784,54 @@ def test_giving_way_counts_a_try_and_needs_half_the_deadlock_distance_to_the_ref
     w = orca_world([(10.0, 5.0), (1.0, 5.0)])
     f = w.fleet
     deadlock(w, [3.0 + 5j, 1.75 + 5j])  # refuge: its start (1, 5), 0.75 m back
-    f.recoveries[1] = 2
+    f.recoveries[1] = 1
     assert w.jobs.give_way(1, 30.0) is True
-    assert f.recoveries[1] == 3
+    assert f.recoveries[1] == 2
     assert waypoints(w, 1).tolist() == [1.75 + 5j, 1 + 5j, 14 + 5j]
     f.last_z_m[:2] = [3.2 + 5j, 2.0 + 5j]  # 1 m back
     assert w.jobs.give_way(1, 31.0) is True
-    assert f.recoveries[1] == 4
+    assert f.recoveries[1] == 3
+
+
+def test_a_robot_that_used_its_tries_giving_way_passes_the_choice_to_the_other():
+    w = orca_world([(10.0, 5.0), (4.0, 5.0)])
+    f = w.fleet
+    deadlock(w, [9.9 + 5j, 9 + 5j])
+    assert w.spatial.max_recoveries == 3
+    f.recoveries[1] = 3  # chosen three times and never got out: not chosen again
+    assert w.jobs.give_way(1, 30.0) is True  # robot 1 waits for robot 0
+    assert (f.recoveries[1], f.t_progress_s[1], w.follower.last[1]) == (3, 30.0, 1)
+    assert w.jobs.give_way(0, 30.0) is True  # robot 0 backs out past its start
+    assert f.recoveries.tolist()[:2] == [1, 3]
+    assert waypoints(w, 0).tolist() == [9.9 + 5j, 11.5 + 5j, 2 + 5j]
+    f.recoveries[0] = 3  # both used up: the higher index is chosen, and gives up
+    assert w.jobs.give_way(0, 31.0) is True
+    assert w.jobs.give_way(1, 31.0) is False
+    assert f.recoveries.tolist()[:2] == [3, 3]
+
+
+def test_the_way_back_is_the_planned_path_not_the_straight_line():
+    # robot 1 came up a 1 m gap (x 9.5-10.5, y 6-9) from (4, 2) and stands deep in it; robot
+    # 0 came from (14, 5) and stands at its east side, lower down: beside the straight line
+    # back from robot 1 toward (4, 2), but on the way out of the gap that robot 1 would drive
+    wall = [
+        [[0.0, 6.0], [9.5, 6.0], [9.5, 9.0], [0.0, 9.0]],
+        [[10.5, 6.0], [20.0, 6.0], [20.0, 9.0], [10.5, 9.0]],
+    ]
+    w = orca_world([(14.0, 5.0), (4.0, 2.0)], obstacles=wall)
+    f = w.fleet
+    give(w, [0, 1], [(10.0, 12.0), (10.0, 12.0)])
+    f.last_z_m[:2] = [10.25 + 7.6j, 9.75 + 8.0j]
+    back = w.jobs.origin[1] - f.last_z_m[1]
+    rel = (f.last_z_m[0] - f.last_z_m[1]) * (back / abs(back)).conjugate()
+    assert rel.real < 0.0  # robot 0 is not behind robot 1 on the straight line ...
+    assert w.jobs.backed_in(1) is True  # ... but it is on robot 1's way out of the gap
+    assert w.jobs.backed_in(0) is False
+    assert w.jobs.give_way(1, 30.0) is True  # robot 1 has the higher index, but waits
+    assert (f.recoveries.tolist()[:2], f.t_progress_s[1]) == ([0, 0], 30.0)
+    assert w.jobs.give_way(0, 30.0) is True  # robot 0 backs out toward (14, 5)
+    assert f.recoveries.tolist()[:2] == [1, 0]
+    assert waypoints(w, 0)[0] == 10.25 + 7.6j and waypoints(w, 0)[-1] == 10 + 12j
 
 
 def test_an_idle_robot_on_the_point_steps_clear_even_beside_one_at_work_at_the_slot_ring():

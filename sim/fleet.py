@@ -32,7 +32,8 @@ class FleetState:
         bid: the cost the robot bid for it.
         site: complex, where the task is to be done, m (the start before any task).
         work_end_s: when the work at the site ends, s (while ``WORKING``).
-        deadline_s: past this time the task fails, s (while it holds one).
+        deadline_s: a robot still driving to its site past this time fails its task, s (work
+            begun is finished).
         odo0_m: ``moved_m`` when the task was allocated, m.
         left_m: planned path length still to drive, m.
         progress_m: path left below this counts as progress (restarts the stuck clock), m.
@@ -146,7 +147,7 @@ class Schedule:
 
     Attributes:
         next_end_s: earliest end of work of a working robot, s.
-        next_deadline_s: earliest deadline of a task in progress, s.
+        next_deadline_s: earliest deadline of a robot driving to its site, s.
         stuck_check_s: no driving robot can be stuck before this, s.
         site_check_s: no driving robot can be in its arrival zone before this, s.
         prox_check_s: no robot that steers can come within ``look_m`` of another before this, s.

@@ -183,7 +183,8 @@ class Jobs:
         busy = f.task >= 0
         work = f.state == WORKING
         sch.next_end_s = float(f.work_end_s[work].min(initial=np.inf))
-        sch.next_deadline_s = float(f.deadline_s[busy].min(initial=np.inf))
+        driving = busy & (f.state == DRIVING)  # a deadline is one to begin work by
+        sch.next_deadline_s = float(f.deadline_s[driving].min(initial=np.inf))
         backing = f.replan | (f.backoff_until_s > self.clock.time_s)
         sch.n_backoff = int(np.count_nonzero(backing))
         sch.n_yield = int(np.count_nonzero(f.yielding))
@@ -209,16 +210,17 @@ class Jobs:
             self.refresh()
 
     def end_due(self, t: float) -> None:
-        """End the work that is done and the tasks past their deadline."""
+        """End the work that is done and the tasks whose robot has not begun work by their
+        deadline (work begun is finished: the deadline bounds getting there)."""
         f = self.fleet
         if self.clear_sites and t >= self.queue_check_s:
             self.queue(t)
         if t + 1e-9 >= self.schedule.next_end_s:
             self.finish_work(t)
         if t > self.schedule.next_deadline_s:
-            late = ((f.task >= 0) & (f.deadline_s < t)).nonzero()[0]
+            late = ((f.task >= 0) & (f.state == DRIVING) & (f.deadline_s < t)).nonzero()[0]
             for j in late.tolist():
-                self.finish(j, t, False, "timeout: task not finished by its deadline", False)
+                self.finish(j, t, False, "timeout: not at work by its deadline", False)
             if late.size:
                 self.refresh()
 

@@ -305,7 +305,7 @@ def test_end_due_fails_the_tasks_past_their_deadline_and_only_those():
     assert done(w) == [] and f.task.tolist() == [0, 5, 6]
     sch.resting = True
     w.jobs.end_due(30.5)
-    why = "timeout: task not finished by its deadline"
+    why = "timeout: not at work by its deadline"
     assert done(w) == [
         Completion(0, 0, 0.0, 30.5, 1.0, 2.0, False, why),
         Completion(6, 2, 0.0, 30.5, 1.0, 1.0, False, why),
@@ -314,6 +314,23 @@ def test_end_due_fails_the_tasks_past_their_deadline_and_only_those():
     assert f.task.tolist() == [-1, 5, -1]  # robot 1's deadline is now: not past yet
     assert sch.next_deadline_s == 30.5 and sch.resting is False
     assert sch.state_list == [IDLE, DRIVING, IDLE]
+
+
+def test_work_begun_is_finished_past_the_deadline():
+    # robot 0 reached its site and works past its deadline; robot 1 still drives: only it fails
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    f, sch = w.fleet, w.schedule
+    give(w, [0, 1], [(6.0, 5.0), (6.0, 2.0)], ids=[3, 4])
+    f.deadline_s[:] = [30.0, 31.0]
+    w.jobs.start_work([0], np.zeros(2), np.zeros(2), 25.0)  # 2 s of work: ends at 27
+    f.work_end_s[0] = 40.0  # (as if its work were long)
+    w.jobs.refresh()
+    assert sch.next_deadline_s == 31.0  # robot 0's deadline no longer counts
+    w.jobs.end_due(35.0)
+    assert [(c.task_id, c.ok) for c in done(w)] == [(4, False)]
+    assert f.state.tolist() == [WORKING, IDLE]
+    w.jobs.end_due(40.0)
+    assert [(c.task_id, c.ok, c.t_done_s) for c in done(w)] == [(3, True, 40.0)]
 
 
 def test_end_due_past_the_scheduled_deadline_with_nobody_late_refreshes_nothing():

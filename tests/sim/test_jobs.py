@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from sim.jobs import BACKOFF_S, YIELD_TIMEOUT_S, Jobs
+from sim.jobs import BACKOFF_S, DEADLOCK_M, SLOT_GAP_M, YIELD_TIMEOUT_S, Jobs
 from sim.physics import PymunkWorld
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
@@ -849,6 +851,46 @@ def test_the_way_back_is_the_planned_path_not_the_straight_line():
     assert w.jobs.give_way(0, 30.0) is True  # robot 0 backs out toward (14, 5)
     assert f.recoveries.tolist()[:2] == [1, 0]
     assert waypoints(w, 0)[0] == 10.25 + 7.6j and waypoints(w, 0)[-1] == 10 + 12j
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.tuples(st.floats(4.0, 16.0), st.floats(3.0, 7.0)), min_size=2, max_size=5).filter(
+        lambda pts: len({(round(x, 3), round(y, 3)) for x, y in pts}) == len(pts)
+    ),
+    st.data(),
+)
+def test_on_open_floor_the_way_back_is_the_straight_line(starts, data):
+    # no obstacle: the planned way back is the straight line to the refuge, and a robot is in
+    # it exactly when, in that line's frame, it is more than a radius and less than
+    # DEADLOCK_M along and less than two radii + SLOT_GAP_M to the side (brute force)
+    w = orca_world(starts)
+    f = w.fleet
+    m = len(starts)
+    give(w, list(range(m)), [(10.0, 5.0)] * m)
+    moved = [complex(*p) for p in data.draw(st.permutations(starts))]
+    f.last_z_m[:m] = moved
+    r = w.controller.radius_m
+    for j in range(m):
+        back = w.jobs.refuge(j) - moved[j]
+        if abs(back) < 1e-6:
+            continue
+        unit = back / abs(back)
+        want = False
+        for k in range(m):
+            if k != j:
+                rel = (moved[k] - moved[j]) * unit.conjugate()
+                along_ok = r + 1e-9 < rel.real < DEADLOCK_M - 1e-9
+                side = abs(rel.imag)
+                if abs(rel.real - r) < 1e-6 or abs(rel.real - DEADLOCK_M) < 1e-6:
+                    want = None  # on an edge: rounding decides
+                    break
+                if abs(side - (2 * r + SLOT_GAP_M)) < 1e-6:
+                    want = None
+                    break
+                want = want or (along_ok and side < 2 * r + SLOT_GAP_M)
+        if want is not None:
+            assert w.jobs.backed_in(j) is bool(want)
 
 
 def test_an_idle_robot_on_the_point_steps_clear_even_beside_one_at_work_at_the_slot_ring():

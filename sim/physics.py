@@ -59,7 +59,7 @@ from sim.jobs import Jobs
 from sim.motors import Motors
 from sim.paths import PathFollower
 from sim.planning import GridPlanner
-from sim.recording import shown_states
+from sim.recording import WORKING, shown_states
 from sim.scenario import Scenario
 from sim.stalls import StallMeter
 from sim.tasks import Batch
@@ -249,10 +249,13 @@ class PymunkWorld:
         return out
 
     def drain(self) -> list[Completion]:
-        """Run until every task in progress is done or has failed; bounded by the task deadlines."""
+        """Run until every task in progress is done or has failed; bounded by the task deadlines
+        (and the end of work begun, which a deadline does not cut short)."""
         out, f = [], self.fleet
         busy = f.task >= 0
-        limit_s = float(f.deadline_s[busy].max(initial=self.time_s)) + 60.0
+        work = f.state == WORKING
+        ends = np.where(work, np.maximum(f.deadline_s, f.work_end_s), f.deadline_s)
+        limit_s = float(ends[busy].max(initial=self.time_s)) + 60.0
         while (f.task >= 0).any() and self.time_s < limit_s:
             out += self.advance(0.5)  # a robot that breaks meanwhile abandons its task
         for j in np.flatnonzero(f.task >= 0).tolist():

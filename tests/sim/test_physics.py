@@ -185,6 +185,22 @@ def test_drain_finishes_every_task_and_robots_stay_where_they_finished(control):
         assert c.t_done_s > c.t_alloc_s + 5.0 and c.distance_m > 9.0
 
 
+def test_drain_lets_work_begun_end_though_it_runs_past_the_deadline_and_a_minute():
+    # 200 s of work, begun 1 s before the deadline: the old bound (the latest deadline plus
+    # 60 s) would have cut it off as "drain: still unfinished"; a deadline is one to begin by
+    world = PymunkWorld(scenario([(2.0, 2.0)], sites=[(6.0, 2.0)], exec_s=200.0))
+    send(world, [0], [(6.0, 2.0)])
+    world.advance(8.0)
+    f = world.fleet
+    assert f.state[0] == WORKING
+    f.deadline_s[0] = world.time_s + 1.0
+    world.jobs.refresh()
+    done = world.drain()
+    assert [(c.task_id, c.ok) for c in done] == [(0, True)]
+    assert done[0].t_done_s == pytest.approx(float(f.work_end_s[0]))
+    assert done[0].t_done_s > f.deadline_s[0] + 60.0
+
+
 def test_snapshot_positions_feed_the_distance_cost_and_the_nearer_robot_bids_less():
     starts = [(2.0, 5.0), (9.0, 5.0), (18.0, 1.0)]
     sc = scenario(starts, sites=[(14.0, 5.0)])

@@ -40,7 +40,10 @@ HOLD_MAX_S = 300.0  # a robot may hold in a site's queue this long before its ta
 AROUND_M = 3.0  # avoidance on: a stuck robot plans round the robots this close (centres), m
 DETOUR_FACTOR = 3.0  # ... and takes that path if at most this times the path it had ...
 DETOUR_EXTRA_M = 10.0  # ... plus this, m
-PASS_S = 2.0  # avoidance on: a robot stood this long beside a robot at work at another site ...
+PASS_S = 2.0  # avoidance on: a robot stood this long beside a driving robot acts on the jam
+# (break_jams) ...
+LANE_GAP_M = 0.1  # ... in a place where it cannot step this far beyond a robot's width aside;
+# beside a robot at work at another site (pass_workers) it ...
 PASS_EXTRA_M = 3.0  # ... plans round it, and takes that path if at most this much longer, m
 
 
@@ -404,10 +407,20 @@ class Jobs:
         self.refresh()
         return True
 
+    def standing(self, t: float) -> np.ndarray:
+        """Collision avoidance on: the driving robots commanded to stand (below
+        ``STILL_MPS``; not holding in a queue, backing off or replanning) for ``PASS_S`` since
+        their last progress (:meth:`pass_workers`, :meth:`break_jams`)."""
+        f = self.fleet
+        if t - float(f.t_progress_s.min()) < PASS_S:
+            return np.zeros(0, dtype=int)
+        still = (f.state == DRIVING) & (np.abs(f.v_cmd_mps) < STILL_MPS) & ~self.holding
+        still &= ~f.replan & (f.backoff_until_s <= t) & (t - f.t_progress_s >= PASS_S)
+        return still.nonzero()[0]
+
     def pass_workers(self, t: float) -> None:
-        """Collision avoidance on, after a control period: a driving robot commanded to stand
-        (below ``STILL_MPS``; not holding in a queue, backing off or replanning) for
-        ``PASS_S`` since its last progress, whose nearest robot is within ``NEAR_M`` and at
+        """Collision avoidance on, after a control period: a robot :meth:`standing` whose
+        nearest robot is within ``NEAR_M`` and at
         work for another site with more than ``PASS_S`` of work left, plans its way to its
         place (``fleet.site``: the service point, or the slot it was let in to) round the
         robots within ``AROUND_M`` (``GridPlanner.path_around``) and takes that path if it is
@@ -417,11 +430,7 @@ class Jobs:
         work that is in the way is not being stuck, only slow (README, "Collision
         avoidance"); a robot that does not take the path is asked again in the next period."""
         f = self.fleet
-        if t - float(f.t_progress_s.min()) < PASS_S:
-            return
-        still = (f.state == DRIVING) & (np.abs(f.v_cmd_mps) < STILL_MPS) & ~self.holding
-        still &= ~f.replan & (f.backoff_until_s <= t) & (t - f.t_progress_s >= PASS_S)
-        rows = still.nonzero()[0]
+        rows = self.standing(t)
         if not len(rows):
             return
         z = f.last_z_m
@@ -447,6 +456,60 @@ class Jobs:
             self.follower.set_path(j, path)
             f.progress_m[j], f.t_progress_s[j] = np.inf, t
             self.refresh()
+
+    def break_jams(self, t: float) -> None:
+        """Collision avoidance on, after :meth:`pass_workers`: a robot :meth:`standing` whose
+        nearest robot is within ``NEAR_M`` and driving is in a jam, and acts on it now as it
+        would at the stuck timeout: it goes round (:meth:`go_round`) or gives way
+        (:meth:`give_way`: backs out, or waits for the one chosen to), if the meeting is in a
+        single-lane place for either robot (:meth:`single_lane`) or the two stand facing each
+        other alone (:meth:`standoff`); in a crowd on open floor robots stop a moment in turn
+        and ORCA sorts them out, so the rule stays out of its way. Robots facing each other
+        in a gap stand until one of them acts: without this rule each such meeting cost the
+        whole ``stuck_timeout_s`` (6 s in the warehouse) before anyone moved. The tries are
+        counted as in :meth:`recover`; a robot for which neither applies waits for the stuck
+        timeout as before."""
+        f = self.fleet
+        rows = self.standing(t)
+        if not len(rows):
+            return
+        z = f.last_z_m
+        other, dist = nearest_other(z, rows)
+        for j, k, d in zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True):
+            if d >= NEAR_M or f.state[k] != DRIVING:
+                continue
+            if not (self.single_lane(j, k) or self.single_lane(k, j) or self.standoff(j, k)):
+                continue
+            if not self.go_round(j, t):
+                self.give_way(j, t)
+
+    def single_lane(self, j: int, k: int) -> bool:
+        """True if robot j cannot step aside of the line toward robot k: neither point two
+        radii plus ``LANE_GAP_M`` to its side is on the planner's free space (which keeps a
+        radius and the clearance from obstacles) clear of the robots that stand (at work or
+        idle) by two radii. A gap or door narrower than about 2 x (2 radii + clearance) +
+        ``LANE_GAP_M`` is single-lane, as is an aisle a robot at work narrows so; open floor,
+        or a 2 m aisle (for 0.25 m robots), is not."""
+        f, r = self.fleet, self.controller.radius_m
+        z = f.last_z_m
+        u = (z[k] - z[j]) / max(abs(z[k] - z[j]), 1e-9)
+        side = z[j] + 1j * u * np.array([1.0, -1.0]) * (2.0 * r + LANE_GAP_M)
+        free = self.planner.free(np.column_stack([side.real, side.imag]))
+        standing = z[f.state != DRIVING]
+        if len(standing):
+            free &= (np.abs(side[:, None] - standing[None, :]) >= 2.0 * r).all(axis=1)
+        return not free.any()
+
+    def standoff(self, j: int, k: int) -> bool:
+        """True if robots j and k stand facing each other alone: k too is commanded to stand,
+        and no other driving robot is within ``DEADLOCK_M`` of j. Two robots whose ways cross
+        can stop each other for good where ORCA's half-planes leave each only a standstill; in a
+        crowd (the circle swap) robots stop a moment in turn, and ORCA sorts them out."""
+        f, z = self.fleet, self.fleet.last_z_m
+        if abs(f.v_cmd_mps[k]) >= STILL_MPS:
+            return False
+        close = (f.state == DRIVING) & (np.abs(z - z[j]) < DEADLOCK_M)
+        return int(np.count_nonzero(close)) == 2  # j and k
 
     def give_way(self, j: int, t: float) -> bool:
         """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot

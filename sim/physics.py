@@ -37,7 +37,9 @@ A task's robot plans a path to the site, drives, arrives within ``arrive_tol_m``
 already standing at the site), works for the type's execution time and stays where it finished.
 A robot that makes no progress for ``stuck_timeout_s`` drives round the robot in its way or backs
 off on a random arc (from the world's generator) and replans; one boxed in by a robot at work that
-will be done within ``stuck_timeout_s`` waits for it instead. After ``max_recoveries`` tries, or
+will be done within ``stuck_timeout_s`` waits for it instead; with avoidance on, one that stands
+2 s in a jam in a single-lane place, or facing another alone, acts then (``Jobs.break_jams``).
+After ``max_recoveries`` tries, or
 not at work by its deadline (work begun is finished), or if no path exists, the task is reported
 as a failed Completion with a reason.
 """
@@ -444,6 +446,7 @@ class PymunkWorld:
         self.control.period(t)
         if self.jobs.clear_sites:
             self.jobs.pass_workers(t)
+            self.jobs.break_jams(t)
         self.stalls.sample(f, self.jobs.holding)
         if self.recorder is not None:
             shown = shown_states(f.state, f.t_progress_s, t)

@@ -1149,3 +1149,123 @@ def test_going_round_skips_a_robot_at_work_for_the_same_site(monkeypatch):
     after = waypoints(world, 0)
     assert f.t_progress_s[0] == t and after.imag.max() > 4.3  # through the second gap
     assert f.recoveries[0] == 0
+
+
+# ---- jams in single-lane places (break_jams) --------------------------------------------
+
+GAP = [  # a wall across x = 10 with a 1 m gap at y = 4.5..5.5 (single-lane for 0.25 m robots)
+    ((9.8, 0.0), (10.2, 0.0), (10.2, 4.5), (9.8, 4.5)),
+    ((9.8, 5.5), (10.2, 5.5), (10.2, 10.0), (9.8, 10.0)),
+]
+AISLE = [  # a corridor 2 m wide along y = 4..6 (two robots pass in it)
+    ((2.0, 3.6), (18.0, 3.6), (18.0, 4.0), (2.0, 4.0)),
+    ((2.0, 6.0), (18.0, 6.0), (18.0, 6.4), (2.0, 6.4)),
+]
+
+
+def _lane(obstacles, j: complex, k: complex, standing=()) -> bool:
+    """Is robot 0 at j single-lane toward robot 1 at k (robots 2.. stand, idle, at standing)?"""
+    starts = [(4.0, 2.0), (16.0, 2.0)] + [(p.real, p.imag) for p in standing]
+    w = orca_world(starts, obstacles=obstacles)
+    w.fleet.state[:2] = DRIVING
+    w.fleet.last_z_m[:2] = [j, k]
+    return w.jobs.single_lane(0, 1)
+
+
+def test_a_gap_is_single_lane_and_open_floor_or_a_two_metre_aisle_is_not():
+    assert _lane(GAP, 10 + 5j, 11 + 5j) and _lane(GAP, 10 + 5j, 9 + 5j)
+    assert not _lane(GAP, 8 + 5j, 9 + 5j)  # before the wall: room either side
+    assert not _lane(GAP, 10 + 5j, 10 + 6j)  # the line along the wall: room ahead
+    assert not _lane(AISLE, 10 + 5j, 11 + 5j)  # 0.6 m either side is free
+    assert not _lane(AISLE, 10 + 4.4j, 11 + 4.4j)  # one side free is enough
+    assert not _lane((), 10 + 5j, 11 + 5j)
+    # a robot standing 0.6 m to one side of the aisle's middle narrows it to one lane ...
+    assert _lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.3j])
+    # ... but not one 0.5 m (two radii) from that side point, or a driving one
+    assert not _lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.65j])
+    assert _lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.64j])
+
+
+def _head_on(obstacles, t_s: float):
+    """Robots 0 and 1 face each other, 0.7 m apart across x = 10 (in the gap, if any), both
+    commanded to stand since their last progress at 20 s; robot 2 idles out of the way;
+    returns the world and the time."""
+    w = orca_world([(4.0, 5.0), (16.0, 5.0), (18.0, 9.0)], obstacles=obstacles)
+    f = w.fleet
+    give(w, [0, 1], [(16.0, 5.0), (4.0, 5.0)])
+    f.last_z_m[:2] = [9.65 + 5j, 10.35 + 5j]
+    f.v_cmd_mps[:2] = 0.0
+    f.t_progress_s[:2] = 20.0
+    return w, at(w, t_s)
+
+
+def test_a_jam_in_a_gap_is_acted_on_after_pass_s_not_the_stuck_timeout():
+    """Head-on in the gap, both standing 2 s: robot 1 (the higher index, its way back free)
+    backs out past where it was given its task and robot 0 waits for it, without waiting for
+    the 20 s stuck timeout. Before ``PASS_S`` nothing happens."""
+    from sim.jobs import PASS_S
+
+    w, t = _head_on(GAP, 20.0 + PASS_S - 0.1)
+    w.jobs.break_jams(t)
+    assert w.fleet.recoveries[:2].tolist() == [0, 0] and w.fleet.t_progress_s[:2].tolist() == [
+        20,
+        20,
+    ]
+    w, t = _head_on(GAP, 20.0 + PASS_S)
+    w.jobs.break_jams(t)
+    f = w.fleet
+    assert f.recoveries[:2].tolist() == [0, 1] and f.t_progress_s[:2].tolist() == [t, t]
+    back = waypoints(w, 1)
+    assert back[0] == 10.35 + 5j and back[-1] == 4 + 5j  # out, then on to its site
+    assert max(back.real) >= 16.0 + DEADLOCK_M - 1e-9  # past its start (16, 5)
+
+
+def test_on_open_floor_only_a_pair_standing_alone_is_a_jam():
+    """On open floor (or in a 2 m aisle) a robot standing 2 s beside a driving one acts only
+    if that one stands too and no third driving robot is within ``DEADLOCK_M`` (a standoff
+    of two); beside a moving one, or in a crowd, it is left to ORCA and the stuck timeout.
+    In a single-lane gap it acts in the crowd too."""
+    from sim.jobs import PASS_S
+
+    for floor in ((), AISLE):
+        w, t = _head_on(floor, 20.0 + PASS_S)
+        w.jobs.break_jams(t)  # open floor, both standing alone: robot 0 goes round robot 1,
+        assert w.fleet.recoveries[:2].tolist() == [1, 0], floor  # and 1 waits for it
+        assert w.fleet.t_progress_s[:2].tolist() == [t, t]
+        for change in ("moving", "crowd"):
+            w, t = _head_on(floor, 20.0 + PASS_S)
+            f = w.fleet
+            if change == "moving":
+                f.v_cmd_mps[1] = 0.2  # robot 1 moves: robot 0 waits for ORCA
+            else:  # a third driving robot 1.35 m from both
+                give(w, [2], [(4.0, 8.0)])
+                f.last_z_m[2], f.v_cmd_mps[2] = 10 + 6.3j, 0.5
+            w.jobs.break_jams(t)
+            assert f.recoveries[:2].tolist() == [0, 0], (floor, change)
+            assert np.all(f.t_progress_s[:2] == 20.0), (floor, change)
+    w, t = _head_on(GAP, 20.0 + PASS_S)
+    f = w.fleet
+    give(w, [2], [(4.0, 8.0)])  # a third robot of the jam, 1.0 m behind robot 1, driving
+    f.last_z_m[2], f.v_cmd_mps[2] = 11.2 + 5.6j, 0.0
+    w.jobs.break_jams(t)
+    assert f.recoveries.sum() == 1  # one of them goes round or backs out
+    assert f.t_progress_s.tolist() == [t, t, t]  # and the others wait for it
+
+
+def test_break_jams_leaves_a_robot_alone_beside_one_at_work_holding_or_backing_off():
+    from sim.jobs import PASS_S
+
+    for change in ("working", "holding", "backoff", "moving"):
+        w, t = _head_on(GAP, 20.0 + PASS_S)
+        f = w.fleet
+        if change == "working":
+            f.state[1], f.work_end_s[1] = WORKING, t + 1.0  # robot 0's neighbour works
+        elif change == "holding":
+            w.jobs.holding[:2] = True
+        elif change == "backoff":
+            f.backoff_until_s[:2] = t + 1.0
+        else:
+            f.v_cmd_mps[:2] = 0.2
+        w.jobs.break_jams(t)
+        assert f.recoveries[:2].tolist() == [0, 0], change
+        assert np.all(f.t_progress_s[:2] == 20.0), change

@@ -295,10 +295,12 @@ def test_a_jam_in_a_single_lane_gap_is_broken_by_the_robot_whose_way_back_is_fre
     """The warehouse's cross aisle: a 1 m gap in a 1 m thick wall, one lane for robots 0.5 m
     wide. Robots 0 and 2 drive north through it, 2 in front; robot 1 comes south and meets 2
     in the gap. The highest index of the jam, 2, cannot back out (0 stands right behind it),
-    so robot 1, whose way back is free, gives way: once the jam is seen (one stuck timeout,
-    20 s, after they stop, within 10 s of the start) it backs 2.5 m out of the gap, the two
-    come through and it follows, 7 m at 1.5 m/s taken twice over: a bound of
-    stuck_timeout_s + 25 s. No contact."""
+    so robot 1, whose way back is free, gives way: it backs 2.5 m out of the gap, the two
+    come through and it follows, 7 m at 1.5 m/s taken twice over. The jam is seen 2 s
+    (``PASS_S``) after they stop, but robot 1, back at its refuge, turns back while robot 0 is
+    still in the gap, they meet again at its mouth and robot 1 backs out a second time
+    (44 s in all when this was written, 39.5 s with the jam seen at the stuck timeout); the
+    bound is stuck_timeout_s + 25 s. No contact."""
     from sim.scenario import DriveSpec
 
     fast = DriveSpec(max_wheel_speed_radps=18.75)

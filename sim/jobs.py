@@ -407,21 +407,27 @@ class Jobs:
         self.refresh()
         return True
 
-    def standing(self, t: float) -> np.ndarray:
-        """Collision avoidance on: the driving robots commanded to stand (below
+    def standing_beside(self, t: float, state: int) -> list[tuple[int, int]]:
+        """Collision avoidance on: (j, k) for each driving robot j commanded to stand (below
         ``STILL_MPS``; not holding in a queue, backing off or replanning) for ``PASS_S`` since
-        their last progress (:meth:`pass_workers`, :meth:`break_jams`)."""
+        its last progress whose nearest robot k is within ``NEAR_M`` and in ``state``
+        (:meth:`pass_workers`, :meth:`break_jams`)."""
         f = self.fleet
         if t - float(f.t_progress_s.min()) < PASS_S:
-            return np.zeros(0, dtype=int)
+            return []
         still = (f.state == DRIVING) & (np.abs(f.v_cmd_mps) < STILL_MPS) & ~self.holding
         still &= ~f.replan & (f.backoff_until_s <= t) & (t - f.t_progress_s >= PASS_S)
-        return still.nonzero()[0]
+        rows = still.nonzero()[0]
+        if not len(rows):
+            return []
+        other, dist = nearest_other(f.last_z_m, rows)
+        pairs = zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True)
+        return [(j, k) for j, k, d in pairs if d < NEAR_M and f.state[k] == state]
 
     def pass_workers(self, t: float) -> None:
-        """Collision avoidance on, after a control period: a robot :meth:`standing` whose
-        nearest robot is within ``NEAR_M`` and at
-        work for another site with more than ``PASS_S`` of work left, plans its way to its
+        """Collision avoidance on, after a control period: a robot standing beside a robot at
+        work (:meth:`standing_beside`) for another site with more than ``PASS_S`` of work
+        left plans its way to its
         place (``fleet.site``: the service point, or the slot it was let in to) round the
         robots within ``AROUND_M`` (``GridPlanner.path_around``) and takes that path if it is
         longer than the path it has left (else no robot is in its way: it stands for another
@@ -429,16 +435,9 @@ class Jobs:
         takes less than the work left. Not a recovery try: waiting beside a robot at
         work that is in the way is not being stuck, only slow (README, "Collision
         avoidance"); a robot that does not take the path is asked again in the next period."""
-        f = self.fleet
-        rows = self.standing(t)
-        if not len(rows):
-            return
-        z = f.last_z_m
-        other, dist = nearest_other(z, rows)
+        f, z = self.fleet, self.fleet.last_z_m
         v_max, radius = self.follower.v_max_mps, self.controller.radius_m
-        for j, k, d in zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True):
-            if d >= NEAR_M or f.state[k] != WORKING:
-                continue
+        for j, k in self.standing_beside(t, WORKING):
             if abs(self.service[j] - self.service[k]) < 1e-6:  # k works at j's site: the
                 continue  # site's queue decides (service: the site; f.site: the place to go)
             left_s = f.work_end_s[k] - t
@@ -458,8 +457,8 @@ class Jobs:
             self.refresh()
 
     def break_jams(self, t: float) -> None:
-        """Collision avoidance on, after :meth:`pass_workers`: a robot :meth:`standing` whose
-        nearest robot is within ``NEAR_M`` and driving is in a jam, and acts on it now as it
+        """Collision avoidance on, after :meth:`pass_workers`: a robot standing beside a driving
+        robot (:meth:`standing_beside`) is in a jam, and acts on it now as it
         would at the stuck timeout: it goes round (:meth:`go_round`) or gives way
         (:meth:`give_way`: backs out, or waits for the one chosen to), if the meeting is in a
         single-lane place for either robot (:meth:`single_lane`) or the two stand facing each
@@ -469,15 +468,7 @@ class Jobs:
         whole ``stuck_timeout_s`` (6 s in the warehouse) before anyone moved. The tries are
         counted as in :meth:`recover`; a robot for which neither applies waits for the stuck
         timeout as before."""
-        f = self.fleet
-        rows = self.standing(t)
-        if not len(rows):
-            return
-        z = f.last_z_m
-        other, dist = nearest_other(z, rows)
-        for j, k, d in zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True):
-            if d >= NEAR_M or f.state[k] != DRIVING:
-                continue
+        for j, k in self.standing_beside(t, DRIVING):
             if not (self.single_lane(j, k) or self.single_lane(k, j) or self.standoff(j, k)):
                 continue
             if not self.go_round(j, t):

@@ -407,11 +407,12 @@ class Jobs:
         self.refresh()
         return True
 
-    def standing_beside(self, t: float, state: int) -> list[tuple[int, int]]:
+    def standing_near(self, t: float) -> list[tuple[int, int]]:
         """Collision avoidance on: (j, k) for each driving robot j commanded to stand (below
         ``STILL_MPS``; not holding in a queue, backing off or replanning) for ``PASS_S`` since
-        its last progress whose nearest robot k is within ``NEAR_M`` and in ``state``
-        (:meth:`pass_workers`, :meth:`break_jams`)."""
+        its last progress whose nearest robot k is within ``NEAR_M``. Found once per control
+        period for :meth:`pass_workers` and :meth:`break_jams` (the nearest-robot search is
+        a k-d tree over the fleet in a large team)."""
         f = self.fleet
         if t - float(f.t_progress_s.min()) < PASS_S:
             return []
@@ -422,11 +423,11 @@ class Jobs:
             return []
         other, dist = nearest_other(f.last_z_m, rows)
         pairs = zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True)
-        return [(j, k) for j, k, d in pairs if d < NEAR_M and f.state[k] == state]
+        return [(j, k) for j, k, d in pairs if d < NEAR_M]
 
-    def pass_workers(self, t: float) -> None:
+    def pass_workers(self, t: float, near: list[tuple[int, int]] | None = None) -> None:
         """Collision avoidance on, after a control period: a robot standing beside a robot at
-        work (:meth:`standing_beside`) for another site with more than ``PASS_S`` of work
+        work (:meth:`standing_near`) for another site with more than ``PASS_S`` of work
         left plans its way to its
         place (``fleet.site``: the service point, or the slot it was let in to) round the
         robots within ``AROUND_M`` (``GridPlanner.path_around``) and takes that path if it is
@@ -437,7 +438,10 @@ class Jobs:
         avoidance"); a robot that does not take the path is asked again in the next period."""
         f, z = self.fleet, self.fleet.last_z_m
         v_max, radius = self.follower.v_max_mps, self.controller.radius_m
-        for j, k in self.standing_beside(t, WORKING):
+        near = self.standing_near(t) if near is None else near
+        for j, k in near:
+            if f.state[k] != WORKING:
+                continue
             if abs(self.service[j] - self.service[k]) < 1e-6:  # k works at j's site: the
                 continue  # site's queue decides (service: the site; f.site: the place to go)
             left_s = f.work_end_s[k] - t
@@ -456,9 +460,9 @@ class Jobs:
             f.progress_m[j], f.t_progress_s[j] = np.inf, t
             self.refresh()
 
-    def break_jams(self, t: float) -> None:
+    def break_jams(self, t: float, near: list[tuple[int, int]] | None = None) -> None:
         """Collision avoidance on, after :meth:`pass_workers`: a robot standing beside a driving
-        robot (:meth:`standing_beside`) is in a jam, and acts on it now as it
+        robot (:meth:`standing_near`) is in a jam, and acts on it now as it
         would at the stuck timeout: it goes round (:meth:`go_round`) or gives way
         (:meth:`give_way`: backs out, or waits for the one chosen to), if the meeting is in a
         single-lane place for either robot (:meth:`single_lane`) or the two stand facing each
@@ -468,39 +472,52 @@ class Jobs:
         whole ``stuck_timeout_s`` (6 s in the warehouse) before anyone moved. The tries are
         counted as in :meth:`recover`; a robot for which neither applies waits for the stuck
         timeout as before."""
-        for j, k in self.standing_beside(t, DRIVING):
-            if not (self.single_lane(j, k) or self.single_lane(k, j) or self.standoff(j, k)):
+        f, z = self.fleet, self.fleet.last_z_m
+        near = self.standing_near(t) if near is None else near
+        if not near:
+            return
+        drives = f.state == DRIVING
+        driving, standing = z[drives], z[~drives]  # (no robot stops or starts in the loop)
+        for j, k in near:
+            if not drives[k] or t - f.t_progress_s[j] < PASS_S:
+                continue  # (pass_workers may have given j a path in this period)
+            lane = self.single_lane(j, k, standing) or self.single_lane(k, j, standing)
+            if not (lane or self.standoff(j, k, driving)):
                 continue
             if not self.go_round(j, t):
                 self.give_way(j, t)
 
-    def single_lane(self, j: int, k: int) -> bool:
+    def single_lane(self, j: int, k: int, standing: np.ndarray | None = None) -> bool:
         """True if robot j cannot step aside of the line toward robot k: neither point two
         radii plus ``LANE_GAP_M`` to its side is on the planner's free space (which keeps a
         radius and the clearance from obstacles) clear of the robots that stand (at work or
         idle) by two radii. A gap or door narrower than about 2 x (2 radii + clearance) +
         ``LANE_GAP_M`` is single-lane, as is an aisle a robot at work narrows so; open floor,
-        or a 2 m aisle (for 0.25 m robots), is not."""
+        or a 2 m aisle (for 0.25 m robots), is not. ``standing``: the positions of the robots
+        not driving, if the caller has them."""
         f, r = self.fleet, self.controller.radius_m
         z = f.last_z_m
         u = (z[k] - z[j]) / max(abs(z[k] - z[j]), 1e-9)
         side = z[j] + 1j * u * np.array([1.0, -1.0]) * (2.0 * r + LANE_GAP_M)
         free = self.planner.free(np.column_stack([side.real, side.imag]))
-        standing = z[f.state != DRIVING]
+        if not free.any():
+            return True
+        standing = z[f.state != DRIVING] if standing is None else standing
         if len(standing):
             free &= (np.abs(side[:, None] - standing[None, :]) >= 2.0 * r).all(axis=1)
         return not free.any()
 
-    def standoff(self, j: int, k: int) -> bool:
+    def standoff(self, j: int, k: int, driving: np.ndarray | None = None) -> bool:
         """True if robots j and k stand facing each other alone: k too is commanded to stand,
         and no other driving robot is within ``DEADLOCK_M`` of j. Two robots whose ways cross
         can stop each other for good where ORCA's half-planes leave each only a standstill; in a
-        crowd (the circle swap) robots stop a moment in turn, and ORCA sorts them out."""
+        crowd (the circle swap) robots stop a moment in turn, and ORCA sorts them out.
+        ``driving``: the positions of the driving robots, if the caller has them."""
         f, z = self.fleet, self.fleet.last_z_m
         if abs(f.v_cmd_mps[k]) >= STILL_MPS:
             return False
-        close = (f.state == DRIVING) & (np.abs(z - z[j]) < DEADLOCK_M)
-        return int(np.count_nonzero(close)) == 2  # j and k
+        driving = z[f.state == DRIVING] if driving is None else driving
+        return int(np.count_nonzero(np.abs(driving - z[j]) < DEADLOCK_M)) == 2  # j and k
 
     def give_way(self, j: int, t: float) -> bool:
         """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot

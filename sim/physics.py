@@ -445,8 +445,9 @@ class PymunkWorld:
             return
         self.control.period(t)
         if self.jobs.clear_sites:
-            self.jobs.pass_workers(t)
-            self.jobs.break_jams(t)
+            near = self.jobs.standing_near(t)
+            self.jobs.pass_workers(t, near)
+            self.jobs.break_jams(t, near)
         self.stalls.sample(f, self.jobs.holding)
         if self.recorder is not None:
             shown = shown_states(f.state, f.t_progress_s, t)

@@ -269,14 +269,15 @@ def timed_avoidance():
 @contextlib.contextmanager
 def timed_sites():
     """Time the site work that exists only with collision avoidance on (``sim.jobs.Jobs``:
-    site queues, service slots, robots driving clear of a service point and going round robots
-    at work: ``queue``, ``take_slots``, ``leave``, ``pass_workers``) while the block runs;
+    site queues, service slots, robots driving clear of a service point, going round robots at
+    work and jams seen at once: ``queue``, ``take_slots``, ``leave``, ``pass_workers``,
+    ``break_jams``) while the block runs;
     yields a one-item list whose entry is the wall seconds spent in them so far (a call inside
     another timed one is counted once)."""
     from sim.jobs import Jobs
 
     spent, depth = [0.0], [0]
-    names = ("queue", "take_slots", "leave", "pass_workers")
+    names = ("queue", "take_slots", "leave", "pass_workers", "break_jams")
     inners = [Jobs.__dict__[name] for name in names]
 
     def timer(inner):

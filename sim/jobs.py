@@ -465,8 +465,8 @@ class Jobs:
         robot (:meth:`standing_near`) is in a jam, and acts on it now as it
         would at the stuck timeout: it goes round (:meth:`go_round`) or gives way
         (:meth:`give_way`: backs out, or waits for the one chosen to), if the meeting is in a
-        single-lane place for either robot (:meth:`single_lane`) or the two stand facing each
-        other alone (:meth:`standoff`); in a crowd on open floor robots stop a moment in turn
+        single-lane place for either robot (:meth:`single_lane`) or the two stand together
+        alone (:meth:`standoff`); in a crowd on open floor robots stop a moment in turn
         and ORCA sorts them out, so the rule stays out of its way. Robots facing each other
         in a gap stand until one of them acts: without this rule each such meeting cost the
         whole ``stuck_timeout_s`` (6 s in the warehouse) before anyone moved. The tries are
@@ -508,8 +508,9 @@ class Jobs:
         return not free.any()
 
     def standoff(self, j: int, k: int, driving: np.ndarray | None = None) -> bool:
-        """True if robots j and k stand facing each other alone: k too is commanded to stand,
-        and no other driving robot is within ``DEADLOCK_M`` of j. Two robots whose ways cross
+        """True if robots j and k stand together alone: k too is commanded to stand, and no
+        other driving robot is within ``DEADLOCK_M`` of j (which way they face is not looked
+        at). Two robots whose ways cross
         can stop each other for good where ORCA's half-planes leave each only a standstill; in a
         crowd (the circle swap) robots stop a moment in turn, and ORCA sorts them out.
         ``driving``: the positions of the driving robots, if the caller has them."""

@@ -38,7 +38,7 @@ already standing at the site), works for the type's execution time and stays whe
 A robot that makes no progress for ``stuck_timeout_s`` drives round the robot in its way or backs
 off on a random arc (from the world's generator) and replans; one boxed in by a robot at work that
 will be done within ``stuck_timeout_s`` waits for it instead; with avoidance on, one that stands
-2 s in a jam in a single-lane place, or facing another alone, acts then (``Jobs.break_jams``).
+2 s in a jam in a single-lane place, or alone with one other, acts then (``Jobs.break_jams``).
 After ``max_recoveries`` tries, or
 not at work by its deadline (work begun is finished), or if no path exists, the task is reported
 as a failed Completion with a reason.

@@ -16,6 +16,8 @@ import numpy as np
 
 from sim.recording import IDLE
 
+PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
+
 
 @dataclass(slots=True, eq=False)
 class FleetState:

@@ -26,7 +26,8 @@ What runs at which rate:
 
 Who does what: the world builds the space and owns the fleet state (``sim.fleet``: per-robot
 arrays, the schedule of checks, the clock), which it hands to its collaborators: the task
-bookkeeping (``sim.jobs.Jobs``), the control period (``sim.control``), the motors
+bookkeeping (``sim.jobs.Jobs``, with the sites' slots and queues, ``sim.sites``, and the jam
+rules, ``sim.jams``), the control period (``sim.control``), the motors
 (``sim.motors.Motors``) and the contact monitor. The control period exists twice with the same
 formulas, chosen by the ``control`` argument: over numpy arrays (``ArrayControl``), and robot by
 robot in plain Python (``ScalarControl``), where numpy's per-call overhead would dominate; by
@@ -38,7 +39,7 @@ already standing at the site), works for the type's execution time and stays whe
 A robot that makes no progress for ``stuck_timeout_s`` drives round the robot in its way or backs
 off on a random arc (from the world's generator) and replans; one boxed in by a robot at work that
 will be done within ``stuck_timeout_s`` waits for it instead; with avoidance on, one that stands
-2 s in a jam in a single-lane place, or alone with one other, acts then (``Jobs.break_jams``).
+2 s in a jam in a single-lane place, or alone with one other, acts then (``Jams.break_jams``).
 After ``max_recoveries`` tries, or
 not at work by its deadline (work begun is finished), or if no path exists, the task is reported
 as a failed Completion with a reason.
@@ -445,10 +446,10 @@ class PymunkWorld:
             return
         self.control.period(t)
         if self.jobs.clear_sites:
-            near = self.jobs.standing_near(t)
-            self.jobs.pass_workers(t, near)
-            self.jobs.break_jams(t, near)
-        self.stalls.sample(f, self.jobs.holding)
+            near = self.jobs.jams.standing_near(t)
+            self.jobs.jams.pass_workers(t, near)
+            self.jobs.jams.break_jams(t, near)
+        self.stalls.sample(f, self.jobs.sites.holding)
         if self.recorder is not None:
             shown = shown_states(f.state, f.t_progress_s, t)
             self.recorder.poses(t, self.motors.flat[:, :2], f.last_th_rad, shown)

@@ -268,17 +268,18 @@ def timed_avoidance():
 
 @contextlib.contextmanager
 def timed_sites():
-    """Time the site work that exists only with collision avoidance on (``sim.jobs.Jobs``:
-    site queues, service slots, robots driving clear of a service point, going round robots at
-    work and jams seen at once: ``queue``, ``take_slots``, ``leave``, ``pass_workers``,
-    ``break_jams``) while the block runs;
-    yields a one-item list whose entry is the wall seconds spent in them so far (a call inside
-    another timed one is counted once)."""
-    from sim.jobs import Jobs
+    """Time the site work that exists only with collision avoidance on (site queues, service
+    slots, robots driving clear of a service point: ``sim.sites.Sites.queue``, ``take_slots``,
+    ``leave``; going round robots at work and jams seen at once: ``sim.jams.Jams.pass_workers``,
+    ``break_jams``) while the block runs; yields a one-item list whose entry is the wall seconds
+    spent in them so far (a call inside another timed one is counted once)."""
+    from sim.jams import Jams
+    from sim.sites import Sites
 
     spent, depth = [0.0], [0]
-    names = ("queue", "take_slots", "leave", "pass_workers", "break_jams")
-    inners = [Jobs.__dict__[name] for name in names]
+    methods = [(Sites, name) for name in ("queue", "take_slots", "leave")]
+    methods += [(Jams, name) for name in ("pass_workers", "break_jams")]
+    inners = [cls.__dict__[name] for cls, name in methods]
 
     def timer(inner):
         def timed(*args, **kwargs):
@@ -294,10 +295,10 @@ def timed_sites():
 
         return timed
 
-    for name, inner in zip(names, inners, strict=True):
-        setattr(Jobs, name, timer(inner))
+    for (cls, name), inner in zip(methods, inners, strict=True):
+        setattr(cls, name, timer(inner))
     try:
         yield spent
     finally:
-        for name, inner in zip(names, inners, strict=True):
-            setattr(Jobs, name, inner)
+        for (cls, name), inner in zip(methods, inners, strict=True):
+            setattr(cls, name, inner)

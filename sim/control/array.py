@@ -15,7 +15,8 @@ import numpy as np
 from sim.control.avoidance import steer_clear, wall_clear
 from sim.control.protocol import ControlParts
 from sim.drive_law import SPEED_BOUND, next_check_s, preferred_velocity
-from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M
+from sim.fleet import PROGRESS_M
+from sim.jobs import RECOVERED_M, YIELD_TRIGGER_M
 from sim.recording import DRIVING, IDLE
 
 FREE_CAP_M = 2.0  # free widths of side steps as far as this (the step is 1 m), then on demand
@@ -162,7 +163,7 @@ class ArrayControl:
         there = go & (gap <= zone)
         if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
             if p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
-                p.jobs.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)
+                p.jobs.sites.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)
                 queue = np.zeros(0, dtype=int)
             else:
                 queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]

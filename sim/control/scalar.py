@@ -44,7 +44,8 @@ from sim.drive_law import (
     stopping_time_s,
     twist_from_rims,
 )
-from sim.jobs import PROGRESS_M, RECOVERED_M, YIELD_TRIGGER_M
+from sim.fleet import PROGRESS_M
+from sim.jobs import RECOVERED_M, YIELD_TRIGGER_M
 from sim.paths import LOOKAHEAD_M
 from sim.recording import DRIVING, IDLE
 
@@ -246,7 +247,7 @@ class ScalarControl:
                 elif gap <= zone:
                     queue.append((j, gap))
         if queue and p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
-            p.jobs.take_slots([j for j, _ in queue], np.array(zs), t)
+            p.jobs.sites.take_slots([j for j, _ in queue], np.array(zs), t)
             queue = []
         if queue:  # touching a robot that stands nearer the site: the site is taken,
             # and working beside the robots already there counts as arrived

@@ -75,9 +75,8 @@ def one_period(world: PymunkWorld, kind) -> tuple[FleetState, Jobs]:
         keep_lists=True,
         clear_sites=world.jobs.clear_sites,
     )
-    for name, value in world.jobs.state_arrays().items():  # site queues and slots too
-        setattr(jobs, name, copy.deepcopy(value) if np.ndim(value) else value.item())
-    jobs.queue_check_s, jobs.around_s = world.jobs.queue_check_s, world.jobs.around_s.copy()
+    jobs.restore_arrays(copy.deepcopy(world.jobs.state_arrays()))  # site queues and slots too
+    jobs.jams.around_s = world.jobs.jams.around_s.copy()
     motors = Probe(world.motors)
     parts = ControlParts(
         fleet,

@@ -13,10 +13,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.jobs import BACKOFF_S, DEADLOCK_M, SLOT_GAP_M, YIELD_TIMEOUT_S, Jobs
+from sim.jams import DEADLOCK_M
+from sim.jobs import BACKOFF_S, Jobs
 from sim.physics import PymunkWorld
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.sites import SLOT_GAP_M, YIELD_TIMEOUT_S
 from sim.tasks import Batch
 from sim.world import Completion
 
@@ -86,7 +88,7 @@ def test_assign_writes_every_field_of_the_task_and_plans_the_path_from_the_given
     t = at(w, 2.0)
     f.moved_m[:] = [1.0, 3.5, 7.0]
     f.recoveries[1], f.replan[1], f.stuck_left_m[1] = 2, True, 4.0  # left over from before
-    f.backoff_until_s[1], f.yielding[1], jobs.slotted[1] = 9.0, True, True
+    f.backoff_until_s[1], f.yielding[1], jobs.sites.slotted[1] = 9.0, True, True
     xy = [(2.0, 5.0), (3.0, 2.0), (8.0, 8.0)]  # robot 1 has moved since its start
     give(w, [1, 0], [(12.0, 5.0), (2.0, 8.0)], types=[1, 0], ids=[7, 9], bids=[3.25, 4.5], xy=xy)
     assert f.task.tolist() == [9, 7, -1]
@@ -101,8 +103,8 @@ def test_assign_writes_every_field_of_the_task_and_plans_the_path_from_the_given
     assert f.stuck_left_m[:2].tolist() == [np.inf, np.inf]
     assert f.backoff_until_s[:2].tolist() == [-np.inf, -np.inf]
     assert f.yielding.tolist() == [False, False, False]
-    assert jobs.slotted.tolist() == [False, False, False]
-    assert jobs.origin.tolist() == [2 + 5j, 3 + 2j, 8 + 8j]
+    assert jobs.sites.slotted.tolist() == [False, False, False]
+    assert jobs.jams.origin.tolist() == [2 + 5j, 3 + 2j, 8 + 8j]
     d1 = np.hypot(9.0, 3.0)  # (3, 2) -> (12, 5)
     assert f.left_m[:2] == pytest.approx([3.0, d1], rel=1e-12)
     assert f.progress_m[:2].tolist() == [np.inf, np.inf]
@@ -619,10 +621,10 @@ def test_of_two_deadlocked_robots_the_higher_index_backs_out_past_its_start():
     f = w.fleet
     deadlock(w, [9.9 + 5j, 9 + 5j])
     t = at(w, 30.0)
-    assert w.jobs.give_way(0, t) is True  # robot 1 gives way: robot 0 waits
+    assert w.jobs.jams.give_way(0, t) is True  # robot 1 gives way: robot 0 waits
     assert (f.t_progress_s[0], f.recoveries[0], w.follower.last[0]) == (t, 0, 1)
     w.schedule.resting = True
-    assert w.jobs.give_way(1, t) is True
+    assert w.jobs.jams.give_way(1, t) is True
     assert f.recoveries.tolist() == [0, 1]
     assert waypoints(w, 1).tolist() == [9 + 5j, 2.5 + 5j, 14 + 5j]  # 1.5 m past (4, 5)
     assert (f.progress_m[1], f.t_progress_s[1]) == (np.inf, t)
@@ -634,8 +636,8 @@ def test_deadlock_needs_a_driving_robot_closer_than_the_deadlock_distance():
     f = w.fleet
     deadlock(w, [10.5 + 5j, 9 + 5j])  # exactly DEADLOCK_M apart
     f.last_z_m[2] = 9 + 5.5j  # close, but standing
-    assert w.jobs.give_way(1, 30.0) is False
-    assert w.jobs.give_way(0, 30.0) is False
+    assert w.jobs.jams.give_way(1, 30.0) is False
+    assert w.jobs.jams.give_way(0, 30.0) is False
     assert f.recoveries.tolist() == [0, 0, 0] and f.t_progress_s[:2].tolist() == [0.0, 0.0]
 
 
@@ -643,7 +645,7 @@ def test_refuge_off_the_free_space_falls_back_to_the_start():
     w = orca_world([(10.0, 5.0), (1.0, 5.0)])
     f = w.fleet
     deadlock(w, [9.9 + 5j, 9 + 5j])
-    assert w.jobs.give_way(1, 30.0) is True
+    assert w.jobs.jams.give_way(1, 30.0) is True
     assert waypoints(w, 1).tolist() == [9 + 5j, 1 + 5j, 14 + 5j]  # x = -0.5 is off the arena
     assert f.recoveries[1] == 1
 
@@ -652,9 +654,9 @@ def test_no_give_way_while_at_the_refuge_already_or_without_a_way_on():
     w = orca_world([(10.0, 5.0), (1.0, 5.0)])
     f = w.fleet
     deadlock(w, [2.2 + 5j, 1.5 + 5j])  # 0.5 m from its start, which is its refuge
-    assert w.jobs.give_way(1, 30.0) is False
+    assert w.jobs.jams.give_way(1, 30.0) is False
     f.last_z_m[:2] = [1.7 + 5j, 1.0 + 5j]  # at its start: no direction to back out in
-    assert w.jobs.give_way(1, 30.0) is False
+    assert w.jobs.jams.give_way(1, 30.0) is False
     assert f.recoveries[1] == 0 and w.follower.last[1] == 1
 
 
@@ -663,7 +665,7 @@ def test_no_give_way_without_a_path_on_to_the_site():
     f = w.fleet
     deadlock(w, [9.9 + 5j, 9 + 5j])
     f.site[1] = 15 + 5j  # walled in
-    assert w.jobs.give_way(1, 30.0) is False
+    assert w.jobs.jams.give_way(1, 30.0) is False
     assert f.recoveries[1] == 0
 
 
@@ -701,16 +703,16 @@ def test_newcomer_takes_the_nearest_free_service_slot_beside_a_robot_at_work():
     service(w, 8.5 + 5.2j)
     w.schedule.resting = True
     t = at(w, 12.0)
-    jobs.take_slots([0], f.last_z_m, t)
+    jobs.sites.take_slots([0], f.last_z_m, t)
     k3 = slot(10 + 5j, 2)
     assert abs(k3 - (9.15 + 5j)) < 1e-12
     assert f.site[0] == k3
-    assert jobs.slotted.tolist() == [True, False]
+    assert jobs.sites.slotted.tolist() == [True, False]
     assert waypoints(w, 0).tolist() == [8.5 + 5.2j, k3]
     assert (f.progress_m[0], f.t_progress_s[0]) == (np.inf, t)
     assert w.schedule.resting is False
     w.schedule.resting = True
-    jobs.take_slots([0], f.last_z_m, t)  # a slot already: nothing changes
+    jobs.sites.take_slots([0], f.last_z_m, t)  # a slot already: nothing changes
     assert f.site[0] == k3 and w.schedule.resting is True
 
 
@@ -723,7 +725,7 @@ def test_slots_in_an_obstacle_near_a_standing_robot_or_another_robots_goal_are_n
     f.last_z_m[3] = slot(site, 1) + 0.674j  # just too close to slot 1
     give(w, [2], [(12.0, 2.0)])
     f.site[2] = slot(site, 3)  # robot 2 drives to slot 3
-    w.jobs.take_slots([0], f.last_z_m, 5.0)
+    w.jobs.sites.take_slots([0], f.last_z_m, 5.0)
     assert f.site[0] == slot(site, 0)  # nearest to (8.5, 5.6): 2, 1, 3, then 0
     assert waypoints(w, 0)[-1] == slot(site, 0)
 
@@ -736,8 +738,8 @@ def test_with_no_free_slot_the_newcomer_waits_where_it_is():
     service(w, 8.5 + 5.2j)
     f.last_z_m[2:] = ring
     w.schedule.resting = True
-    w.jobs.take_slots([0], f.last_z_m, 5.0)
-    assert f.site[0] == 10 + 5j and w.jobs.slotted[0] == False  # noqa: E712
+    w.jobs.sites.take_slots([0], f.last_z_m, 5.0)
+    assert f.site[0] == 10 + 5j and w.jobs.sites.slotted[0] == False  # noqa: E712
     assert waypoints(w, 0).tolist() == [4 + 5j, 10 + 5j]
     assert w.schedule.resting is True
 
@@ -750,8 +752,8 @@ def test_newcomer_keeps_its_site_while_the_service_point_is_free():
     f.last_z_m[:3] = [8.5 + 1j, 10 + 1.675j, 10 + 0.6j]  # robot 2 drives: not standing
     assert abs(f.last_z_m[1] - f.site[0]) == 2 * 0.25 + 0.5 * 0.35
     w.schedule.resting = True
-    w.jobs.take_slots([0], f.last_z_m, 5.0)
-    assert f.site[0] == 10 + 1j and w.jobs.slotted[0] == False  # noqa: E712
+    w.jobs.sites.take_slots([0], f.last_z_m, 5.0)
+    assert f.site[0] == 10 + 1j and w.jobs.sites.slotted[0] == False  # noqa: E712
     assert w.schedule.resting is True
 
 
@@ -761,12 +763,12 @@ def test_idle_robot_on_the_service_point_steps_clear_of_the_newcomer():
     service(w, 8.5 + 5.0j, on_site_state=IDLE)
     w.motors.bodies[1].angle = np.pi / 2  # it faces +y: steps to its left, -x
     t = at(w, 6.0)
-    w.jobs.take_slots([0], f.last_z_m, t)
+    w.jobs.sites.take_slots([0], f.last_z_m, t)
     assert f.yielding.tolist() == [False, True]
     assert f.yield_until_s[1] == t + YIELD_TIMEOUT_S
     path = waypoints(w, 1)
     assert path[0] == 10 + 5j and abs(path[1] - (9 + 5j)) < 1e-12
-    assert f.site[0] == 10 + 5j and w.jobs.slotted[0] == False  # noqa: E712
+    assert f.site[0] == 10 + 5j and w.jobs.sites.slotted[0] == False  # noqa: E712
     assert (w.schedule.n_yield, w.schedule.steer_list) == (1, [0, 1])
 
 
@@ -775,7 +777,7 @@ def test_step_clear_takes_the_free_side_and_a_robot_with_none_stays():
     f = w.fleet
     for b in w.motors.bodies:
         b.angle = 0.0
-    w.jobs.step_clear([0, 2], 3.0)  # robot 1 stands on 0's left; 3, 4, 5 round robot 2
+    w.jobs.sites.step_clear([0, 2], 3.0)  # robot 1 stands on 0's left; 3, 4, 5 round robot 2
     assert f.yielding.tolist() == [True, False, False, False, False, False]
     assert f.yield_until_s[0] == 3.0 + YIELD_TIMEOUT_S
     assert waypoints(w, 0).tolist() == [10 + 5j, 10 + 4j]
@@ -795,7 +797,7 @@ def test_robot_boxed_in_by_robot_0_at_work_waits_for_it_too():
 def test_a_robot_near_its_start_backs_out_the_full_deadlock_distance_past_it():
     w = orca_world([(10.0, 5.0), (4.0, 5.0)])
     deadlock(w, [5.5 + 5j, 4.5 + 5j])  # half a metre from where it was given its task
-    assert w.jobs.give_way(1, 30.0) is True
+    assert w.jobs.jams.give_way(1, 30.0) is True
     assert waypoints(w, 1).tolist() == [4.5 + 5j, 2.5 + 5j, 14 + 5j]
 
 
@@ -804,11 +806,11 @@ def test_giving_way_counts_a_try_and_needs_half_the_deadlock_distance_to_the_ref
     f = w.fleet
     deadlock(w, [3.0 + 5j, 1.75 + 5j])  # refuge: its start (1, 5), 0.75 m back
     f.recoveries[1] = 1
-    assert w.jobs.give_way(1, 30.0) is True
+    assert w.jobs.jams.give_way(1, 30.0) is True
     assert f.recoveries[1] == 2
     assert waypoints(w, 1).tolist() == [1.75 + 5j, 1 + 5j, 14 + 5j]
     f.last_z_m[:2] = [3.2 + 5j, 2.0 + 5j]  # 1 m back
-    assert w.jobs.give_way(1, 31.0) is True
+    assert w.jobs.jams.give_way(1, 31.0) is True
     assert f.recoveries[1] == 3
 
 
@@ -818,14 +820,14 @@ def test_a_robot_that_used_its_tries_giving_way_passes_the_choice_to_the_other()
     deadlock(w, [9.9 + 5j, 9 + 5j])
     assert w.spatial.max_recoveries == 3
     f.recoveries[1] = 3  # chosen three times and never got out: not chosen again
-    assert w.jobs.give_way(1, 30.0) is True  # robot 1 waits for robot 0
+    assert w.jobs.jams.give_way(1, 30.0) is True  # robot 1 waits for robot 0
     assert (f.recoveries[1], f.t_progress_s[1], w.follower.last[1]) == (3, 30.0, 1)
-    assert w.jobs.give_way(0, 30.0) is True  # robot 0 backs out past its start
+    assert w.jobs.jams.give_way(0, 30.0) is True  # robot 0 backs out past its start
     assert f.recoveries.tolist()[:2] == [1, 3]
     assert waypoints(w, 0).tolist() == [9.9 + 5j, 11.5 + 5j, 2 + 5j]
     f.recoveries[0] = 3  # both used up: the higher index is chosen, and gives up
-    assert w.jobs.give_way(0, 31.0) is True
-    assert w.jobs.give_way(1, 31.0) is False
+    assert w.jobs.jams.give_way(0, 31.0) is True
+    assert w.jobs.jams.give_way(1, 31.0) is False
     assert f.recoveries.tolist()[:2] == [3, 3]
 
 
@@ -841,14 +843,14 @@ def test_the_way_back_is_the_planned_path_not_the_straight_line():
     f = w.fleet
     give(w, [0, 1], [(10.0, 12.0), (10.0, 12.0)])
     f.last_z_m[:2] = [10.25 + 7.6j, 9.75 + 8.0j]
-    back = w.jobs.origin[1] - f.last_z_m[1]
+    back = w.jobs.jams.origin[1] - f.last_z_m[1]
     rel = (f.last_z_m[0] - f.last_z_m[1]) * (back / abs(back)).conjugate()
     assert rel.real < 0.0  # robot 0 is not behind robot 1 on the straight line ...
-    assert w.jobs.backed_in(1) is True  # ... but it is on robot 1's way out of the gap
-    assert w.jobs.backed_in(0) is False
-    assert w.jobs.give_way(1, 30.0) is True  # robot 1 has the higher index, but waits
+    assert w.jobs.jams.backed_in(1) is True  # ... but it is on robot 1's way out of the gap
+    assert w.jobs.jams.backed_in(0) is False
+    assert w.jobs.jams.give_way(1, 30.0) is True  # robot 1 has the higher index, but waits
     assert (f.recoveries.tolist()[:2], f.t_progress_s[1]) == ([0, 0], 30.0)
-    assert w.jobs.give_way(0, 30.0) is True  # robot 0 backs out toward (14, 5)
+    assert w.jobs.jams.give_way(0, 30.0) is True  # robot 0 backs out toward (14, 5)
     assert f.recoveries.tolist()[:2] == [1, 0]
     assert waypoints(w, 0)[0] == 10.25 + 7.6j and waypoints(w, 0)[-1] == 10 + 12j
 
@@ -872,7 +874,7 @@ def test_on_open_floor_the_way_back_is_the_straight_line(starts, data):
     f.last_z_m[:m] = moved
     r = w.controller.radius_m
     for j in range(m):
-        back = w.jobs.refuge(j) - moved[j]
+        back = w.jobs.jams.refuge(j) - moved[j]
         if abs(back) < 1e-6:
             continue
         unit = back / abs(back)
@@ -890,7 +892,7 @@ def test_on_open_floor_the_way_back_is_the_straight_line(starts, data):
                     break
                 want = want or (along_ok and side < 2 * r + SLOT_GAP_M)
         if want is not None:
-            assert w.jobs.backed_in(j) is bool(want)
+            assert w.jobs.jams.backed_in(j) is bool(want)
 
 
 def test_an_idle_robot_on_the_point_steps_clear_even_beside_one_at_work_at_the_slot_ring():
@@ -901,9 +903,9 @@ def test_an_idle_robot_on_the_point_steps_clear_even_beside_one_at_work_at_the_s
     f.state[1:] = [IDLE, WORKING]
     f.last_z_m[:] = [8.8 + 1j, 10 + 1j, 10 + 1.675j]
     assert abs(f.last_z_m[2] - f.site[0]) == 2 * 0.25 + 0.5 * 0.35
-    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    w.jobs.sites.take_slots([0], f.last_z_m, 4.0)
     assert f.yielding.tolist() == [False, True, False]  # the idle one steps clear
-    assert f.site[0] == 10 + 1j and w.jobs.slotted[0] == False  # noqa: E712
+    assert f.site[0] == 10 + 1j and w.jobs.sites.slotted[0] == False  # noqa: E712
 
 
 def test_every_newcomer_in_one_call_is_answered():
@@ -914,9 +916,9 @@ def test_every_newcomer_in_one_call_is_answered():
     give(w, [0, 1, 2], starts[3:])
     f.state[5] = WORKING
     f.last_z_m[:3] = [4 + 7j, 10 + 7j, 15.8 + 7j]
-    w.jobs.take_slots([0, 1, 2], f.last_z_m, 4.0)
+    w.jobs.sites.take_slots([0, 1, 2], f.last_z_m, 4.0)
     assert f.yielding.tolist() == [False, False, False, True, True, False]
-    assert w.jobs.slotted.tolist() == [False, False, True, False, False, False]
+    assert w.jobs.sites.slotted.tolist() == [False, False, True, False, False, False]
     assert f.site[2] == slot(16 + 8j, 3)
 
 
@@ -937,7 +939,7 @@ def test_jobs_built_without_avoidance_never_clear_sites_and_track_slots_as_flags
         keep_lists=True,
     )
     assert jobs.clear_sites is False
-    assert jobs.slotted.dtype == bool and jobs.slotted.tolist() == [False, False]
+    assert jobs.sites.slotted.dtype == bool and jobs.sites.slotted.tolist() == [False, False]
     assert (jobs.done, jobs.failures) == ([], 0)
 
 
@@ -956,8 +958,8 @@ def test_a_newcomer_without_a_free_slot_or_a_path_to_one_does_not_stop_the_next(
     f.task[:3] = [0, 1, 2]
     f.state[3:] = WORKING
     f.last_z_m[:] = [2 + 8j, 15 + 5j, 15.8 + 1j, 4 + 5j, 10 + 2j, 16 + 2j]  # 1 is walled in
-    w.jobs.take_slots([0, 1, 2], f.last_z_m, 4.0)
-    assert w.jobs.slotted.tolist() == [False, False, True, False, False, False]
+    w.jobs.sites.take_slots([0, 1, 2], f.last_z_m, 4.0)
+    assert w.jobs.sites.slotted.tolist() == [False, False, True, False, False, False]
     assert f.site[2] == slot(16 + 2j, 3)  # the nearest slot to (15.8, 1) ...
     assert f.site[:2].tolist() == [4 + 5j, 10 + 2j]  # ... the others keep their points
 
@@ -971,7 +973,7 @@ def test_a_slot_exactly_its_room_from_a_standing_robot_is_free():
     f.last_z_m[0] = 11.2 + 1j
     k0 = slot(10 + 1j, 0)
     assert abs(f.last_z_m[2] - k0) == 2 * 0.25 + 0.5 * 0.35
-    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    w.jobs.sites.take_slots([0], f.last_z_m, 4.0)
     assert f.site[0] == k0
 
 
@@ -986,31 +988,34 @@ def test_a_slot_counts_as_another_robots_goal_up_to_a_micrometre_from_it():
     f.site[2] = complex(k0.real + 3979479812 * 2.0**-52, k0.imag + 2108589583 * 2.0**-52)
     assert abs(f.site[2] - k0) == 1e-6
     f.last_z_m[0] = 2.5 + 1.6j
-    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    w.jobs.sites.take_slots([0], f.last_z_m, 4.0)
     assert f.site[0] == slot(1.0 + 1.5j, 1)  # slot 0 is robot 2's: the next nearest
-    w.jobs.slotted[0] = False
+    w.jobs.sites.slotted[0] = False
     f.site[0] = 1.0 + 1.5j
     f.site[2] = k0 + 2e-6  # farther: another point, slot 0 is free
-    w.jobs.take_slots([0], f.last_z_m, 4.0)
+    w.jobs.sites.take_slots([0], f.last_z_m, 4.0)
     assert f.site[0] == k0
 
 
 def test_state_arrays_round_trip_between_sets():
     world = make_world([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)], control="scalar")
     jobs = world.jobs
-    jobs.slotted[:] = [False, True, False]
-    jobs.origin[:] = [1 + 2j, 3 + 4j, 5 + 6j]
+    jobs.sites.slotted[:] = [False, True, False]
+    jobs.jams.origin[:] = [1 + 2j, 3 + 4j, 5 + 6j]
     jobs.failures = 7
     state = jobs.state_arrays()
     assert state["slotted"].tolist() == [False, True, False]
     assert state["origin"].tolist() == [1 + 2j, 3 + 4j, 5 + 6j]
     assert int(state["failures"]) == 7 and state["failures"].dtype == np.int64
     state["slotted"][0] = True  # a copy: the jobs keep theirs
-    assert not jobs.slotted[0]
+    assert not jobs.sites.slotted[0]
     fresh = make_world([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)], control="scalar").jobs
     fresh.restore_arrays(state)
-    assert fresh.slotted.tolist() == [True, True, False] and fresh.slotted.dtype == bool
-    assert fresh.origin.tolist() == [1 + 2j, 3 + 4j, 5 + 6j] and fresh.origin.dtype == complex
+    assert fresh.sites.slotted.tolist() == [True, True, False] and fresh.sites.slotted.dtype == bool
+    assert (
+        fresh.jams.origin.tolist() == [1 + 2j, 3 + 4j, 5 + 6j]
+        and fresh.jams.origin.dtype == complex
+    )
     assert fresh.failures == 7 and type(fresh.failures) is int
     jobs.done.append(Completion(1, 0, 0.0, 1.0, 1.0))
     with pytest.raises(
@@ -1025,8 +1030,12 @@ def test_state_arrays_round_trip_between_sets():
             "failures": np.array(2.0),
         }
     )
-    assert fresh.slotted.dtype == bool and fresh.slotted.tolist() == [True, False, False]
-    assert fresh.origin.dtype == complex and fresh.origin.tolist() == [1, 2, 3]
+    assert fresh.sites.slotted.dtype == bool and fresh.sites.slotted.tolist() == [
+        True,
+        False,
+        False,
+    ]
+    assert fresh.jams.origin.dtype == complex and fresh.jams.origin.tolist() == [1, 2, 3]
     assert fresh.failures == 2 and type(fresh.failures) is int
 
 
@@ -1069,7 +1078,7 @@ def test_step_clear_skips_a_broken_robot_and_serves_the_next():
     for b in w.motors.bodies:
         b.angle = 0.0
     w.jobs.broken[:] = [True, False]
-    w.jobs.step_clear([0, 1], 3.0)  # robot 0 cannot move; robot 1 still steps clear
+    w.jobs.sites.step_clear([0, 1], 3.0)  # robot 0 cannot move; robot 1 still steps clear
     assert w.fleet.yielding.tolist() == [False, True]
     assert w.follower.last[0] == -1 and len(waypoints(w, 1)) == 2
 
@@ -1105,12 +1114,12 @@ def test_a_robot_beside_one_at_work_at_another_site_goes_round_it_without_a_try(
     gap, 2.3 m longer, without spending a recovery try; with the rule off it waits for the
     stuck timeout and then goes round, spending one. Where the only way round is more than
     ``PASS_EXTRA_M`` longer the rule leaves every robot exactly as it was."""
-    import sim.jobs
+    import sim.jams
 
-    pass_s = sim.jobs.PASS_S
+    pass_s = sim.jams.PASS_S
     runs = {}
     for rule in (True, False):
-        monkeypatch.setattr(sim.jobs, "PASS_S", pass_s if rule else 1e9)
+        monkeypatch.setattr(sim.jams, "PASS_S", pass_s if rule else 1e9)
         for gap_y in (5.0, 6.9):
             world = _gap_world(gap_y)
             runs[rule, gap_y] = world, *_arrive(world)
@@ -1129,23 +1138,23 @@ def test_going_round_skips_a_robot_at_work_for_the_same_site(monkeypatch):
     """The rule leaves a robot alone whose neighbour at work works for the robot's own site
     (the site's queue and slots decide who goes where), and re-plans it, through the second
     gap, when that robot works for another site: the same moment, called directly."""
-    import sim.jobs
+    import sim.jams
 
-    monkeypatch.setattr(sim.jobs, "PASS_S", 1e9)  # the rule off while the robot comes up
+    monkeypatch.setattr(sim.jams, "PASS_S", 1e9)  # the rule off while the robot comes up
     world = _gap_world(5.0)
     while world.time_s < 10.0:
         world.advance(0.1)
     f, jobs, t = world.fleet, world.jobs, world.time_s
     assert f.state[0] == DRIVING and f.state[1] == WORKING
     assert abs(f.v_cmd_mps[0]) < 0.1 and t - f.t_progress_s[0] >= 2.0
-    monkeypatch.setattr(sim.jobs, "PASS_S", 2.0)
+    monkeypatch.setattr(sim.jams, "PASS_S", 2.0)
     before, clock = waypoints(world, 0).copy(), f.t_progress_s[0]
-    own = jobs.service[0]
-    jobs.service[0] = jobs.service[1]  # as if both worked for one site
-    jobs.pass_workers(t)
+    own = jobs.sites.service[0]
+    jobs.sites.service[0] = jobs.sites.service[1]  # as if both worked for one site
+    jobs.jams.pass_workers(t)
     assert np.array_equal(waypoints(world, 0), before) and f.t_progress_s[0] == clock
-    jobs.service[0] = own
-    jobs.pass_workers(t)
+    jobs.sites.service[0] = own
+    jobs.jams.pass_workers(t)
     after = waypoints(world, 0)
     assert f.t_progress_s[0] == t and after.imag.max() > 4.3  # through the second gap
     assert f.recoveries[0] == 0
@@ -1169,7 +1178,7 @@ def _lane(obstacles, j: complex, k: complex, standing=()) -> bool:
     w = orca_world(starts, obstacles=obstacles)
     w.fleet.state[:2] = DRIVING
     w.fleet.last_z_m[:2] = [j, k]
-    return w.jobs.single_lane(0, 1)
+    return w.jobs.jams.single_lane(0, 1)
 
 
 def test_a_gap_is_single_lane_and_open_floor_or_a_two_metre_aisle_is_not():
@@ -1203,16 +1212,16 @@ def test_a_jam_in_a_gap_is_acted_on_after_pass_s_not_the_stuck_timeout():
     """Head-on in the gap, both standing 2 s: robot 1 (the higher index, its way back free)
     backs out past where it was given its task and robot 0 waits for it, without waiting for
     the 20 s stuck timeout. Before ``PASS_S`` nothing happens."""
-    from sim.jobs import PASS_S
+    from sim.jams import PASS_S
 
     w, t = _head_on(GAP, 20.0 + PASS_S - 0.1)
-    w.jobs.break_jams(t)
+    w.jobs.jams.break_jams(t)
     assert w.fleet.recoveries[:2].tolist() == [0, 0] and w.fleet.t_progress_s[:2].tolist() == [
         20,
         20,
     ]
     w, t = _head_on(GAP, 20.0 + PASS_S)
-    w.jobs.break_jams(t)
+    w.jobs.jams.break_jams(t)
     f = w.fleet
     assert f.recoveries[:2].tolist() == [0, 1] and f.t_progress_s[:2].tolist() == [t, t]
     back = waypoints(w, 1)
@@ -1225,11 +1234,11 @@ def test_on_open_floor_only_a_pair_standing_alone_is_a_jam():
     if that one stands too and no third driving robot is within ``DEADLOCK_M`` (a standoff
     of two); beside a moving one, or in a crowd, it is left to ORCA and the stuck timeout.
     In a single-lane gap it acts in the crowd too."""
-    from sim.jobs import PASS_S
+    from sim.jams import PASS_S
 
     for floor in ((), AISLE):
         w, t = _head_on(floor, 20.0 + PASS_S)
-        w.jobs.break_jams(t)  # open floor, both standing alone: robot 0 goes round robot 1,
+        w.jobs.jams.break_jams(t)  # open floor, both standing alone: robot 0 goes round robot 1,
         assert w.fleet.recoveries[:2].tolist() == [1, 0], floor  # and 1 waits for it
         assert w.fleet.t_progress_s[:2].tolist() == [t, t]
         for change in ("moving", "crowd"):
@@ -1240,20 +1249,20 @@ def test_on_open_floor_only_a_pair_standing_alone_is_a_jam():
             else:  # a third driving robot 1.35 m from both
                 give(w, [2], [(4.0, 8.0)])
                 f.last_z_m[2], f.v_cmd_mps[2] = 10 + 6.3j, 0.5
-            w.jobs.break_jams(t)
+            w.jobs.jams.break_jams(t)
             assert f.recoveries[:2].tolist() == [0, 0], (floor, change)
             assert np.all(f.t_progress_s[:2] == 20.0), (floor, change)
     w, t = _head_on(GAP, 20.0 + PASS_S)
     f = w.fleet
     give(w, [2], [(4.0, 8.0)])  # a third robot of the jam, 1.0 m behind robot 1, driving
     f.last_z_m[2], f.v_cmd_mps[2] = 11.2 + 5.6j, 0.0
-    w.jobs.break_jams(t)
+    w.jobs.jams.break_jams(t)
     assert f.recoveries.sum() == 1  # one of them goes round or backs out
     assert f.t_progress_s.tolist() == [t, t, t]  # and the others wait for it
 
 
 def test_break_jams_leaves_a_robot_alone_beside_one_at_work_holding_or_backing_off():
-    from sim.jobs import PASS_S
+    from sim.jams import PASS_S
 
     for change in ("working", "holding", "backoff", "moving"):
         w, t = _head_on(GAP, 20.0 + PASS_S)
@@ -1261,11 +1270,11 @@ def test_break_jams_leaves_a_robot_alone_beside_one_at_work_holding_or_backing_o
         if change == "working":
             f.state[1], f.work_end_s[1] = WORKING, t + 1.0  # robot 0's neighbour works
         elif change == "holding":
-            w.jobs.holding[:2] = True
+            w.jobs.sites.holding[:2] = True
         elif change == "backoff":
             f.backoff_until_s[:2] = t + 1.0
         else:
             f.v_cmd_mps[:2] = 0.2
-        w.jobs.break_jams(t)
+        w.jobs.jams.break_jams(t)
         assert f.recoveries[:2].tolist() == [0, 0], change
         assert np.all(f.t_progress_s[:2] == 20.0), change

@@ -1,0 +1,355 @@
+"""Task sites with room for more than one robot (collision avoidance on): service slots and
+queues.
+
+A site has a service point and up to ``SLOTS`` service slots round it. :class:`Sites` lets
+robots in to a free place, first come first served, holds the others in the site's queue
+(drawn as waiting, not stuck), sends a robot that finds the service point taken to a slot, and
+makes a robot that finished (or stands idle) near a site others come to step clear or drive
+out past the crowd. :class:`~sim.jobs.Jobs` owns one and calls it on task events; the control
+period (``sim.control``) asks it for slots when a robot near its site finds the service point
+taken. Without collision avoidance robots push and none of this runs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from sim.drive import DiffDriveController
+from sim.drive_law import SPEED_BOUND, next_check_s
+from sim.fleet import FleetState, Schedule
+from sim.paths import PathFollower
+from sim.planning import GridPlanner
+from sim.recording import DRIVING, IDLE, WORKING
+
+SLOTS = 4  # service slots on a ring around each service point (collision avoidance on)
+SLOT_GAP_M = 0.35  # a robot in a slot keeps this much air to the one on the service point, m
+QUEUE_M = 2.5  # avoidance on: a robot this close to a site with every place taken holds here
+CROWD_M = 1.0  # ... as does one this close (centres) to a robot already holding for that site
+EXIT_M = 1.5  # a robot that finished where others hold drives this far beyond QUEUE_M out
+EXIT_TIMEOUT_S = 20.0  # ... and gives up driving out after this long
+HOLD_MAX_S = 300.0  # a robot may hold in a site's queue this long before its task times out
+YIELD_STEP_M = 1.0  # how far an idle robot steps aside
+YIELD_TIMEOUT_S = 6.0
+
+
+class Sites:
+    """The service places and queues of the task sites, for a fleet of robots.
+
+    Args:
+        fleet: per-robot state, read and written in place (``site`` becomes the place a
+            robot is let in to: its service point or a slot).
+        schedule: the world's check schedule (a robot let in checks its site next period).
+        follower: the robots' paths.
+        planner: plans the ways to a place and out of a site.
+        controller: the drive limits (robot radius).
+        bodies: the robots' pymunk bodies (which way a robot on a service point faces).
+        reach_m: robot centres closer than this are touching, m.
+        broken: (m,) robots broken down (``sim.faults``), shared with the owner and written
+            by the world in place; a broken robot steps nowhere.
+        refresh: brings the schedule up to date after an event (:meth:`sim.jobs.Jobs.refresh`).
+
+    Attributes (per robot, (m,)):
+        service: the service point of its task (x + iy), m; ``fleet.site`` is its place.
+        slotted: working toward a service slot.
+        admitted: let in to its site: a place is kept for it.
+        holding: holding in its site's queue; ``hold_since_s``: since when, s.
+        queue_check_s: no robot can come within ``QUEUE_M`` of its site before this, s.
+    """
+
+    def __init__(
+        self,
+        *,
+        fleet: FleetState,
+        schedule: Schedule,
+        follower: PathFollower,
+        planner: GridPlanner,
+        controller: DiffDriveController,
+        bodies: list,
+        reach_m: float,
+        broken: np.ndarray,
+        refresh: Callable[[], None],
+    ) -> None:
+        self.fleet, self.schedule = fleet, schedule
+        self.follower, self.planner, self.controller = follower, planner, controller
+        self.bodies = bodies
+        self.reach_m = reach_m
+        self.broken = broken
+        self.refresh = refresh
+        m = len(fleet.state)
+        self.slotted = np.zeros(m, dtype=bool)
+        self.service = fleet.site.copy()
+        self.admitted = np.zeros(m, dtype=bool)
+        self.holding = np.zeros(m, dtype=bool)
+        self.hold_since_s = np.full(m, np.inf)
+        self.queue_check_s = -np.inf
+        self._places: dict[complex, np.ndarray] = {}  # service point and free slots per site
+
+    def assign(self, j: int) -> None:
+        """Robot j was given a task at ``fleet.site[j]``: its service point; no place, no
+        queue yet."""
+        self.slotted[j] = False
+        self.service[j] = self.fleet.site[j]
+        self.admitted[j] = self.holding[j] = False
+        self.hold_since_s[j] = np.inf
+
+    def release(self, j: int) -> None:
+        """Robot j's task ended: it keeps no place and holds in no queue."""
+        self.admitted[j] = self.holding[j] = False
+
+    def take_slots(self, rows: list[int], z: np.ndarray, t: float) -> None:
+        """Robots ``rows`` are near their site and not there: where a standing robot takes the
+        service point, each goes to the nearest free service slot instead (``SLOTS`` points on
+        a ring two robot radii plus ``SLOT_GAP_M`` around it, clear of obstacles, of standing
+        robots and of the slots other robots drive to) and works there; with none free it
+        waits where it is for the service point."""
+        f, r = self.fleet, self.controller.radius_m
+        ring, room = 2.0 * r + SLOT_GAP_M, 2.0 * r + 0.5 * SLOT_GAP_M
+        standing = ((f.state != DRIVING) & ~f.yielding).nonzero()[0]
+        changed, idle = False, []
+        for j in rows:
+            site = f.site[j]
+            if self.slotted[j] or self.holding[j]:
+                continue  # a slot already, or holding in the site's queue
+            if not len(standing) or np.abs(z[standing] - site).min() >= room:
+                continue  # the service point is free
+            on_it = standing[np.abs(z[standing] - site) < room]
+            if (f.state[on_it] == IDLE).all():  # finished there: it steps clear
+                idle += [int(b) for b in on_it if not f.yielding[b] and int(b) not in idle]
+                continue
+            cand = site + ring * np.exp(2j * np.pi * np.arange(SLOTS) / SLOTS)
+            ok = self.planner.free(np.column_stack([cand.real, cand.imag]))
+            ok &= np.abs(z[standing][:, None] - cand[None]).min(axis=0) >= room
+            driving = (f.state == DRIVING).nonzero()[0]
+            ok &= np.abs(f.site[driving][:, None] - cand[None]).min(axis=0) > 1e-6
+            if not ok.any():
+                continue
+            k = int(np.where(ok, np.abs(cand - z[j]), np.inf).argmin())
+            path = self.planner.path((z[j].real, z[j].imag), (cand[k].real, cand[k].imag))
+            if not len(path):
+                continue
+            f.site[j] = cand[k]
+            self.slotted[j] = True
+            self.follower.set_path(j, path)
+            f.progress_m[j], f.t_progress_s[j] = np.inf, t
+            changed = True
+        if idle:
+            self.step_clear(idle, t)
+        if changed or idle:
+            self.refresh()
+
+    def queue(self, t: float) -> None:
+        """Site queues (collision avoidance on). A driving robot not yet let in that is within
+        ``QUEUE_M`` of its site, or within ``CROWD_M`` of a robot holding for that site, is let
+        in while the site has a free place (its service point and obstacle-free slots, less
+        the robots let in or at work there), first come first served; otherwise it holds
+        where it is (a path to its own position; its stuck clock stopped, so it is drawn as
+        waiting) until a place is free. Holding does not use up a task's time: the deadline
+        of a robot let in after holding moves on by the time it held, and while it holds it
+        has ``HOLD_MAX_S`` more. Schedules the next check."""
+        f, z = self.fleet, self.fleet.last_z_m
+        driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t)
+        if not driving.any():
+            self.queue_check_s = np.inf
+            return
+        gap = np.abs(z - self.service)
+        cand = driving & ~self.admitted
+        near = cand & (gap < QUEUE_M)
+        held = self.holding.nonzero()[0]
+        if len(held):
+            rest = cand.nonzero()[0]
+            same = np.abs(self.service[rest, None] - self.service[held][None, :]) < 1e-6
+            crowd = same & (np.abs(z[rest, None] - z[held][None, :]) < CROWD_M)
+            near[rest[crowd.any(axis=1)]] = True
+        far = float(np.where(driving & (gap >= QUEUE_M), gap, np.inf).min()) - QUEUE_M
+        self.queue_check_s = next_check_s(t, far, SPEED_BOUND * self.follower.v_max_mps)
+        if (driving & (gap < QUEUE_M)).any():  # robots hold or come in: look next period
+            self.queue_check_s = t
+        rows = near.nonzero()[0]
+        if len(rows):
+            self.let_in_or_hold(rows, gap, t)
+        self.clear_loiterers(driving & ((self.admitted & (gap < QUEUE_M)) | self.holding), t)
+
+    def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
+        """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them), first
+        come first served per site."""
+        f, z = self.fleet, self.fleet.last_z_m
+        changed = False
+        order = rows[np.lexsort((gap[rows], self.hold_since_s[rows]))]
+        for j in order.tolist():
+            place = self.free_place(j)
+            if place is not None:
+                changed |= self.let_in(j, place, t)
+            elif not self.holding[j]:
+                self.holding[j], self.hold_since_s[j] = True, t
+                f.deadline_s[j] += HOLD_MAX_S  # waiting its turn does not run its clock out
+                here = np.array([[z[j].real, z[j].imag]] * 2)
+                self.follower.set_path(j, here)
+                f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
+                changed = True
+        if changed:
+            self.refresh()
+
+    def free_place(self, j: int) -> complex | None:
+        """The place robot j would be given at its site now: the service point if free, else
+        the free slot nearest to it; a place is taken when a robot let in to or at work at that
+        site keeps it or a robot that is not driving (at work, idle, on its way out) stands
+        within two radii and half ``SLOT_GAP_M`` of it. None if every place is taken."""
+        f, r = self.fleet, self.controller.radius_m
+        z, site = f.last_z_m, self.service[j]
+        cand = self.place_points(site)
+        mine = (self.admitted | (f.state == WORKING)) & (np.abs(self.service - site) < 1e-6)
+        mine[j] = False
+        kept = f.site[mine]
+        standing = (f.state != DRIVING).nonzero()[0]
+        room = 2.0 * r + 0.5 * SLOT_GAP_M
+        taken = np.zeros(len(cand), dtype=bool)
+        if len(kept):
+            taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < 1e-6
+        if len(standing):
+            taken |= np.abs(z[standing][:, None] - cand[None, :]).min(axis=0) < room
+        if taken.all():
+            return None
+        free = (~taken).nonzero()[0]
+        return complex(cand[0] if free[0] == 0 else cand[free[np.abs(cand[free] - z[j]).argmin()]])
+
+    def let_in(self, j: int, place: complex, t: float) -> bool:
+        """Robot j goes to ``place`` (:meth:`free_place`) at its site now; one that held has its
+        deadline moved on by the time it held. True if its path changed."""
+        f, z, site = self.fleet, self.fleet.last_z_m, self.service[j]
+        self.admitted[j] = True
+        held = self.holding[j]
+        if held:
+            self.holding[j] = False
+            f.deadline_s[j] += t - self.hold_since_s[j] - HOLD_MAX_S
+            self.hold_since_s[j] = np.inf
+        if place == f.site[j] and not held:
+            return False
+        f.site[j] = place
+        self.slotted[j] = place != site
+        path = self.planner.path((z[j].real, z[j].imag), (place.real, place.imag))
+        if len(path):
+            self.follower.set_path(j, path)
+        f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.schedule.site_check_s = -np.inf
+        return True
+
+    def place_points(self, site: complex) -> np.ndarray:
+        """The places of ``site``: its service point, then its obstacle-free service slots
+        (``SLOTS`` on a ring two robot radii plus ``SLOT_GAP_M`` round it), x + iy (cached)."""
+        if site not in self._places:
+            ring = 2.0 * self.controller.radius_m + SLOT_GAP_M
+            cand = site + ring * np.exp(2j * np.pi * np.arange(SLOTS) / SLOTS)
+            ok = self.planner.free(np.column_stack([cand.real, cand.imag]))
+            self._places[site] = np.concatenate([[site], cand[ok]])
+        return self._places[site]
+
+    def clear_loiterers(self, coming: np.ndarray, t: float) -> None:
+        """Idle robots standing within ``QUEUE_M`` of a site that robots ``coming`` (a mask:
+        let in to it, or holding in its queue) come to drive out (:meth:`leave`)."""
+        f = self.fleet
+        idle = (f.state == IDLE) & ~f.yielding & ~self.broken
+        if not (idle.any() and coming.any()):
+            return
+        sites = np.unique(self.service[coming])
+        near = np.abs(f.last_z_m[idle][:, None] - sites[None, :]) < QUEUE_M
+        moved = False
+        for j, k in zip(*near.nonzero(), strict=True):
+            j = int(idle.nonzero()[0][j])
+            if not f.yielding[j]:
+                moved |= self.leave(j, t, complex(sites[k]))
+        if moved:
+            self.refresh()
+
+    def leave(self, j: int, t: float, site: complex | None = None) -> bool:
+        """Robot j finished (or failed, or stands idle) near ``site`` (its task's by default)
+        that other robots come to (within ``QUEUE_M + EXIT_M``): it drives out,
+        ``EXIT_M`` beyond ``QUEUE_M`` from the site, to the free one of 11 end points (straight
+        away from the site, then turned by 30 to 150 degrees either way) whose straight line
+        passes farthest from the robots around it (clearances of two robot reaches and more
+        count alike; then the least turned), so the next in the queue gets its place; a line
+        closer than one reach to a robot let in to that site does not count (if none is left
+        it stays, and is asked again). True if it drives out; the caller calls
+        ``refresh``."""
+        f, z = self.fleet, self.fleet.last_z_m[j]
+        site = self.service[j] if site is None else site
+        if abs(z - site) >= QUEUE_M or self.broken[j]:
+            return False
+        coming = (f.state == DRIVING) & (np.abs(self.service - site) < 1e-6)
+        coming &= np.abs(f.last_z_m - site) < QUEUE_M + EXIT_M
+        if not coming.any():
+            return False
+        away = z - site
+        if abs(away) < 1e-3:
+            away = -np.exp(1j * self.bodies[j].angle)
+        away /= abs(away)
+        turns = np.radians(np.arange(-150, 151, 30))
+        ends = site + (QUEUE_M + EXIT_M) * away * np.exp(1j * turns)
+        ok = self.planner.free(np.column_stack([ends.real, ends.imag]))
+        # the straight way out that passes farthest from the robots around (ties: least turned)
+        around = np.abs(f.last_z_m - z) < QUEUE_M + EXIT_M
+        around[j] = False
+        clear = self.clearance(z, ends, f.last_z_m[around])
+        # ... and never straight at a robot driving in (let in, not holding): both would stop
+        ok &= self.clearance(z, ends, f.last_z_m[around & coming & self.admitted]) >= self.reach_m
+        order = np.lexsort((np.abs(turns), -np.minimum(clear, 2.0 * self.reach_m)))
+        for k in order[ok[order]].tolist():
+            path = self.planner.path((z.real, z.imag), (ends[k].real, ends[k].imag))
+            if len(path):
+                self.follower.set_path(j, path)
+                f.yielding[j], f.yield_until_s[j] = True, t + EXIT_TIMEOUT_S
+                return True
+        return False
+
+    @staticmethod
+    def clearance(z: complex, ends: np.ndarray, others: np.ndarray) -> np.ndarray:
+        """(len(ends),) how close the points ``others`` come to each segment from ``z`` to an
+        end, m (inf without others)."""
+        if not len(others):
+            return np.full(len(ends), np.inf)
+        seg = ends - z
+        u = ((others[None, :] - z) * seg.conj()[:, None]).real / np.abs(seg)[:, None] ** 2
+        near = z + np.clip(u, 0.0, 1.0) * seg[:, None]
+        return np.abs(others[None, :] - near).min(axis=1)
+
+    def step_clear(self, rows: list[int], t: float) -> None:
+        """Idle robots ``rows`` stand on a service point another robot comes for: each steps
+        ``YIELD_STEP_M`` aside (to the left or right of its heading, whichever is free); one
+        with no free step stays where it is. The caller calls ``refresh``."""
+        f, z = self.fleet, self.fleet.last_z_m
+        steps, paths = [], []
+        for j in rows:
+            if self.broken[j]:  # a broken robot cannot step anywhere
+                continue
+            travel = np.exp(1j * self.bodies[j].angle)
+            close = np.abs(z - z[j]) < 2.0 * YIELD_STEP_M
+            close[j] = False
+            path = self.planner.side_step(z[j], z[j] - travel, travel, YIELD_STEP_M, z[close])
+            if len(path):
+                steps.append(j)
+                paths.append(path)
+                f.yielding[j], f.yield_until_s[j] = True, t + YIELD_TIMEOUT_S
+        self.follower.set_paths(steps, paths)
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The per-robot site state and the next queue check (a checkpoint's part)."""
+        return {
+            "slotted": self.slotted.copy(),
+            "service": self.service.copy(),
+            "admitted": self.admitted.copy(),
+            "holding": self.holding.copy(),
+            "hold_since_s": self.hold_since_s.copy(),
+            "queue_check_s": np.array(self.queue_check_s),
+        }
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Inverse of :meth:`state_arrays`; checkpoints written before site queues existed
+        hold only ``slotted``: nobody queued."""
+        self.slotted = np.array(arrays["slotted"], dtype=bool)
+        m = len(self.slotted)
+        self.service = np.array(arrays.get("service", self.fleet.site), dtype=complex)
+        self.admitted = np.array(arrays.get("admitted", np.zeros(m)), dtype=bool)
+        self.holding = np.array(arrays.get("holding", np.zeros(m)), dtype=bool)
+        self.hold_since_s = np.array(arrays.get("hold_since_s", np.full(m, np.inf)), dtype=float)
+        self.queue_check_s = float(arrays.get("queue_check_s", -np.inf))

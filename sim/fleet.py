@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.recording import IDLE
+from sim.recording import DRIVING, IDLE, WORKING
 
 PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
 
@@ -210,3 +210,26 @@ class Clock:
     def time_s(self) -> float:
         """Simulated time since reset, s."""
         return self.steps * self.dt_s
+
+
+def refresh_schedule(fleet: FleetState, schedule: Schedule, clock: Clock, keep_lists: bool) -> None:
+    """Refresh the schedule's next-event times and counts after a task event: the next end of
+    work and deadline, the robots backing off, yielding and steering (and, with
+    ``keep_lists``, the state and the steering robots as lists); the other checks are due at
+    once and the world is not resting."""
+    f, sch = fleet, schedule
+    busy = f.task >= 0
+    work = f.state == WORKING
+    sch.next_end_s = float(f.work_end_s[work].min(initial=np.inf))
+    driving = busy & (f.state == DRIVING)  # a deadline is one to begin work by
+    sch.next_deadline_s = float(f.deadline_s[driving].min(initial=np.inf))
+    backing = f.replan | (f.backoff_until_s > clock.time_s)
+    sch.n_backoff = int(np.count_nonzero(backing))
+    sch.n_yield = int(np.count_nonzero(f.yielding))
+    sch.n_steer = int(np.count_nonzero(f.state == DRIVING)) + sch.n_yield
+    if keep_lists:
+        sch.state_list = f.state.tolist()
+        steering = (f.state == DRIVING) | f.yielding  # driving, backing off, yielding
+        sch.steer_list = steering.nonzero()[0].tolist()
+    sch.stuck_check_s = sch.prox_check_s = -np.inf
+    sch.resting = False

@@ -11,10 +11,12 @@ slots and queues (``sim.sites``, ``Jobs.sites``) and the rules for jams between 
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from sim.drive import DiffDriveController
-from sim.fleet import Clock, FleetState, Schedule
+from sim.fleet import Clock, FleetState, Schedule, refresh_schedule
 from sim.jams import Jams
 from sim.paths import PathFollower
 from sim.planning import GridPlanner
@@ -96,6 +98,8 @@ class Jobs:
         self.done: list[Completion] = []
         self.failures = 0
         self.broken = np.zeros(len(fleet.state), dtype=bool)  # set by the world (sim.faults)
+        # the same refresh as refresh(), without a reference back to the jobs (no cycle to collect)
+        refresh = functools.partial(refresh_schedule, fleet, schedule, clock, keep_lists)
         self.sites = Sites(
             fleet=fleet,
             schedule=schedule,
@@ -105,7 +109,7 @@ class Jobs:
             bodies=bodies,
             reach_m=reach_m,
             broken=self.broken,
-            refresh=self.refresh,
+            refresh=refresh,
         )
         self.jams = Jams(
             fleet=fleet,
@@ -114,7 +118,7 @@ class Jobs:
             planner=planner,
             controller=controller,
             spatial=spatial,
-            refresh=self.refresh,
+            refresh=refresh,
         )
 
     def assign(
@@ -177,23 +181,9 @@ class Jobs:
             self.schedule.steer_list = ((f.state == DRIVING) | f.yielding).nonzero()[0].tolist()
 
     def refresh(self) -> None:
-        """Refresh the schedule's next-event times and counts after a task event."""
-        f, sch = self.fleet, self.schedule
-        busy = f.task >= 0
-        work = f.state == WORKING
-        sch.next_end_s = float(f.work_end_s[work].min(initial=np.inf))
-        driving = busy & (f.state == DRIVING)  # a deadline is one to begin work by
-        sch.next_deadline_s = float(f.deadline_s[driving].min(initial=np.inf))
-        backing = f.replan | (f.backoff_until_s > self.clock.time_s)
-        sch.n_backoff = int(np.count_nonzero(backing))
-        sch.n_yield = int(np.count_nonzero(f.yielding))
-        sch.n_steer = int(np.count_nonzero(f.state == DRIVING)) + sch.n_yield
-        if self.keep_lists:
-            sch.state_list = f.state.tolist()
-            steering = (f.state == DRIVING) | f.yielding  # driving, backing off, yielding
-            sch.steer_list = steering.nonzero()[0].tolist()
-        sch.stuck_check_s = sch.prox_check_s = -np.inf
-        sch.resting = False
+        """Refresh the schedule's next-event times and counts after a task event
+        (:func:`sim.fleet.refresh_schedule`)."""
+        refresh_schedule(self.fleet, self.schedule, self.clock, self.keep_lists)
 
     def start_work(self, arrived: list[int], v, w, t: float) -> None:
         """The robots ``arrived`` start work now; their commands ``v``, ``w`` become zero."""

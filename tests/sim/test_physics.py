@@ -594,3 +594,37 @@ def test_lane_room_is_the_room_left_within_the_free_width_of_the_segment():
     assert room_r[0] == pytest.approx(f.free_m[0, 1, 1] + 0.1)
     assert room_l[0] == pytest.approx(f.free_m[0, 1, 0] - 0.1)
     assert f.free_m[0, 1, 1] == pytest.approx(0.4 - R)
+
+
+def test_dropped_spaces_are_freed_once_they_hold_gc_robots_and_the_rest_at_once(monkeypatch):
+    """A set boundary drops the space (and every collaborator built with it). The space and
+    its contact monitor wait for a garbage collection (pymunk's collision handlers and the
+    space hold each other), which runs once the dropped spaces hold ``GC_ROBOTS`` robots; the
+    task bookkeeping and the rest go at once, by reference counting."""
+    import gc
+    import weakref
+
+    import sim.physics
+
+    monkeypatch.setattr(sim.physics, "GC_ROBOTS", 6)
+    world = PymunkWorld(scenario([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)]))
+    send(world, [0, 1], [(12.0, 2.0), (12.0, 6.0)])
+    world.drain()  # their tasks done, the set ends: a 3-robot space dropped, not yet collected
+    assert world.dropped_robots_ == 3
+    monkeypatch.setattr(sim.physics, "GC_ROBOTS", 9)  # from here, three 3-robot spaces
+    gc.collect()
+    gc.disable()
+    try:
+        first = [weakref.ref(world.space), weakref.ref(world.contacts)]
+        rest = [weakref.ref(x) for x in (world.jobs, world.follower, world.motors, world.stalls)]
+        world.rebuild()
+        assert [r() is None for r in first] == [False, False]  # 6 robots dropped: kept
+        assert [r() is None for r in rest] == [True] * 4
+        second = weakref.ref(world.space)
+        world.rebuild()  # 9 robots dropped: collected
+        assert [r() is None for r in [*first, second]] == [True, True, True]
+        assert world.dropped_robots_ == 0
+        world.rebuild()
+        assert world.dropped_robots_ == 3
+    finally:
+        gc.enable()

@@ -10,6 +10,11 @@ avoidance"): ``mrta run`` prints it on one line and its ``metrics.json`` holds i
 ``spatial`` as ``still_s_<cause>``, ``driving_s`` and the share of the driving time
 (``still_share``).
 
+Short stops and jams: a stand is the unbroken run of standing periods of one robot on one
+task. The meter also counts, by cause, the standing that comes after the first ``LONG_S`` of a
+stand (``still_long_s_<cause>``): a robot that stands 7 s adds 7 s to ``still_s_`` and 5 s to
+``still_long_s_``; stops to turn or to let a robot by add nothing there.
+
 Causes (``CAUSES``): ``queue`` (holding for a place at its site), ``robot_at_work``,
 ``robot_idle`` (idle, stepping aside or driving out of a site), ``robot_head_on`` (a driving
 robot heading more than 135 degrees away from its heading), ``robot_same_way`` (less than 45
@@ -38,6 +43,7 @@ SMALL_MAX = 32  # up to this many robots a period is counted in plain Python (nu
 TREE_K = 9  # a large team: the robots looked at for the nearest (on a square grid 4 tie)
 MAP_CELL_M = 0.5  # side of a cell of the map of where robots stand, m ...
 MAP_MAX_CELLS = 128  # ... or coarser, so that the arena's longer side has at most this many
+LONG_S = 2.0  # standing beyond this much of a stand counts as long (the jam rules' sim.jams.PASS_S)
 CAUSES = (
     "queue",
     "robot_at_work",
@@ -64,6 +70,12 @@ class StallMeter:
         self.period_s = period_s
         self.driving = 0  # robot-periods driving (state DRIVING)
         self.still = np.zeros(len(CAUSES), dtype=np.int64)  # robot-periods standing, by cause
+        self.long = np.zeros(len(CAUSES), dtype=np.int64)  # ... beyond LONG_S into a stand
+        self.long_after = round(LONG_S / period_s)  # periods of a stand before it counts as long
+        # per robot (sized at the first period): standing periods of its stand so far, and the
+        # task it stands on (a stand ends when the robot moves or its task changes)
+        self.run = np.zeros(0, dtype=np.int64)
+        self.run_task = np.zeros(0, dtype=np.int64)
         self.cell_m = max(MAP_CELL_M, max(width_m, height_m) / MAP_MAX_CELLS)
         nx = math.ceil(width_m / self.cell_m - 1e-9) if width_m > 0 else 0
         ny = math.ceil(height_m / self.cell_m - 1e-9) if height_m > 0 else 0
@@ -78,11 +90,12 @@ class StallMeter:
             return self._sample_small(fleet, holding)
         drive = fleet.state == DRIVING
         n = int(np.count_nonzero(drive))
+        still = drive & (np.abs(fleet.v_cmd_mps) < STILL_MPS)
+        rows = still.nonzero()[0]
+        runs = self._stands(rows, fleet.task)
         if not n:
             return
         self.driving += n
-        still = drive & (np.abs(fleet.v_cmd_mps) < STILL_MPS)
-        rows = still.nonzero()[0]
         if not len(rows):
             return
         other, dist = nearest_other(fleet.last_z_m, rows)
@@ -98,13 +111,27 @@ class StallMeter:
         cause = np.where(near, cause, _NONE)
         cause = np.where(holding[rows], _QUEUE, cause)
         self.still += np.bincount(cause, minlength=len(CAUSES))
+        self.long += np.bincount(cause[runs > self.long_after], minlength=len(CAUSES))
         if self.map.size:
             iy, ix = self._cells(fleet.last_z_m[rows])
             np.add.at(self.map, (cause, iy, ix), 1)
 
+    def _stands(self, rows: np.ndarray, task: np.ndarray) -> np.ndarray:
+        """The robots ``rows`` stand in this period, the others do not: each stand goes on
+        (same task) or starts; the standing periods of each of ``rows``' stands so far."""
+        m = len(task)
+        if len(self.run) != m:
+            self.run, self.run_task = np.zeros(m, dtype=np.int64), np.full(m, -1, dtype=np.int64)
+        on = (self.run[rows] > 0) & (self.run_task[rows] == task[rows])
+        run = np.zeros(m, dtype=np.int64)
+        run[rows] = np.where(on, self.run[rows] + 1, 1)
+        self.run = run
+        self.run_task[rows] = task[rows]
+        return run[rows]
+
     def _sample_small(self, fleet, holding: np.ndarray) -> None:
         """:meth:`sample` robot by robot in plain Python (a small team): the same causes,
-        the nearest robot the first of equal distances as numpy's ``argmin``."""
+        the nearest robot the first of equal distances as numpy's ``argmin``, the same stands."""
         state, v = fleet.state.tolist(), fleet.v_cmd_mps.tolist()
         rows, n = [], 0
         for j, (sj, vj) in enumerate(zip(state, v, strict=True)):
@@ -112,6 +139,14 @@ class StallMeter:
                 n += 1
                 if abs(vj) < STILL_MPS:
                     rows.append(j)
+        m, task = len(state), fleet.task.tolist()
+        if len(self.run) != m:
+            self.run, self.run_task = np.zeros(m, dtype=np.int64), np.full(m, -1, dtype=np.int64)
+        old, old_task, run = self.run.tolist(), self.run_task.tolist(), [0] * m
+        for j in rows:
+            run[j] = old[j] + 1 if old[j] > 0 and old_task[j] == task[j] else 1
+            old_task[j] = task[j]
+        self.run, self.run_task = np.array(run, dtype=np.int64), np.array(old_task, dtype=np.int64)
         if not n:
             return
         self.driving += n
@@ -143,8 +178,10 @@ class StallMeter:
                     else (_SAME_WAY if cos > _COS_SAME_WAY else _CROSSING)
                 )
             causes.append(cause)
-        for cause in causes:
+        for j, cause in zip(rows, causes, strict=True):
             self.still[cause] += 1
+            if run[j] > self.long_after:
+                self.long[cause] += 1
         if self.map.size:
             _, ny, nx = self.map.shape
             inv = 1.0 / self.cell_m
@@ -164,11 +201,14 @@ class StallMeter:
 
     def summary(self) -> dict[str, float]:
         """``still_s_<cause>`` (robot-seconds standing still while driving, by cause),
-        ``driving_s`` (robot-seconds driving) and ``still_share`` (standing over driving)."""
+        ``driving_s`` (robot-seconds driving), ``still_share`` (standing over driving) and
+        ``still_long_s_<cause>`` (of the standing, what came after ``LONG_S`` of a stand)."""
         still = self.still.tolist()
         out = {f"still_s_{c}": k * self.period_s for c, k in zip(CAUSES, still, strict=True)}
         out["driving_s"] = float(self.driving * self.period_s)
         out["still_share"] = float(self.still.sum() / max(self.driving, 1))
+        long = self.long.tolist()
+        out |= {f"still_long_s_{c}": k * self.period_s for c, k in zip(CAUSES, long, strict=True)}
         return out
 
     def seconds_map(self) -> np.ndarray:
@@ -182,6 +222,9 @@ class StallMeter:
             "driving": np.array(self.driving, dtype=np.int64),
             "still": self.still.copy(),
             "map": self.map.copy(),
+            "long": self.long.copy(),
+            "run": self.run.copy(),
+            "run_task": self.run_task.copy(),
         }
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
@@ -196,6 +239,16 @@ class StallMeter:
         if where.shape != self.map.shape:
             raise ValueError(f"stalls/map: expected shape {self.map.shape}, got {where.shape}")
         self.map = where.copy()
+        # checkpoints written before stands were counted: no long standing, no stand going on
+        long = np.asarray(arrays.get("long", np.zeros(len(CAUSES))), dtype=np.int64)
+        if long.shape != (len(CAUSES),):
+            raise ValueError(f"stalls/long: expected {len(CAUSES)} counts, got {long.shape}")
+        self.long = long.copy()
+        run = np.asarray(arrays.get("run", np.zeros(0)), dtype=np.int64)
+        run_task = np.asarray(arrays.get("run_task", np.full(len(run), -1)), dtype=np.int64)
+        if run.ndim != 1 or run_task.shape != run.shape:
+            raise ValueError(f"stalls/run: shapes {run.shape} and {run_task.shape} differ")
+        self.run, self.run_task = run.copy(), run_task.copy()
 
 
 def nearest_other(z: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

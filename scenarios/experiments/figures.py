@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.contacts import IMPACT_MPS
-from sim.stalls import CAUSES, STILL_MPS
+from sim.stalls import CAUSES, LONG_S, STILL_MPS
 
 ALLOCATOR_COLOURS = {"market": "#4c72b0", "ql": "#dd8452", "expt": "#55a868"}
 ALLOCATOR_LABELS = {"market": "Market (MRTA)", "ql": "QL-MRTA", "expt": "ExpT-MRTA"}
@@ -343,9 +343,11 @@ def stall_line(spatial: dict) -> str:
     causes = [(k[len("still_s_") :], v) for k, v in spatial.items() if k.startswith("still_s_")]
     causes = sorted(causes, key=lambda kv: -kv[1])
     parts = ", ".join(f"{name.replace('_', ' ')} {v:,.0f} s" for name, v in causes if v > 0)
+    long = sum(v for k, v in spatial.items() if k.startswith("still_long_s_"))
+    beyond = f"; {long:,.0f} s of it past {LONG_S:g} s into a stand" if long > 0 else ""
     return (
         f"driving robots stood still (below {STILL_MPS:g} m/s) {spatial['still_share']:.1%} of "
-        f"{spatial['driving_s']:,.0f} robot-s driving" + (f": {parts}" if parts else "")
+        f"{spatial['driving_s']:,.0f} robot-s driving" + (f": {parts}" if parts else "") + beyond
     )
 
 

@@ -226,19 +226,25 @@ def test_run_writes_where_robots_stood_and_it_adds_up(tmp_path, capsys):
     assert (out / "stalls.png").stat().st_size > 10_000
 
 
-def test_rebuild_frees_the_old_space_and_reuses_the_batch_buffers(tmp_path):
-    """A soak rebuilds the space at every set end: the old space must be freed at once (a
-    pymunk space and its collision handlers form a reference cycle) and the batch buffers,
-    whose C arrays pymunk never frees, reused; otherwise memory grows set by set."""
+def test_rebuild_frees_the_old_spaces_and_reuses_the_batch_buffers(tmp_path):
+    """A soak rebuilds the space at every set end: the old spaces must be freed (a pymunk
+    space and its collision handlers form a reference cycle: by a collection once the dropped
+    spaces hold ``sim.physics.GC_ROBOTS`` robots) and the batch buffers, whose C arrays pymunk
+    never frees, reused; otherwise memory grows set by set."""
+    import math
     import weakref
+
+    import sim.physics
 
     world = PymunkWorld(load_scenario(small_spatial(tmp_path)))
     world.reset(np.random.default_rng(0))
     buffers = (world.motors.buf_, world.contacts.buf_)
-    old = weakref.ref(world.space)
-    world.rebuild()
-    assert old() is None
-    assert (world.motors.buf_, world.contacts.buf_) == buffers
+    old = [weakref.ref(world.space)]
+    for _ in range(math.ceil(sim.physics.GC_ROBOTS / world.scenario.n_robots)):
+        world.rebuild()
+        old.append(weakref.ref(world.space))
+        assert (world.motors.buf_, world.contacts.buf_) == buffers
+    assert all(r() is None for r in old[:-1]) and old[-1]() is world.space
 
 
 def test_a_checkpoint_whose_world_does_not_fit_is_one_line_and_exit_2(tmp_path, capsys):

@@ -9,16 +9,17 @@ import pytest
 
 from sim.hardcases import swap_world, time_to_all_arrive
 from sim.recording import DRIVING, IDLE, WORKING
-from sim.stalls import CAUSES, NEAR_M, STILL_MPS, StallMeter, nearest_other
+from sim.stalls import CAUSES, LONG_S, NEAR_M, STILL_MPS, StallMeter, nearest_other
 
 
-def _fleet(state, v, xy, th_deg):
+def _fleet(state, v, xy, th_deg, task=None):
     xy = np.asarray(xy, dtype=float)
     return SimpleNamespace(
         state=np.array(state),
         v_cmd_mps=np.array(v, dtype=float),
         last_z_m=xy[:, 0] + 1j * xy[:, 1],
         last_th_rad=np.radians(np.array(th_deg, dtype=float)),
+        task=np.arange(len(state)) if task is None else np.array(task),
     )
 
 
@@ -134,12 +135,67 @@ def test_counts_survive_a_checkpoint_and_old_checkpoints_restore_zero():
     other.restore_arrays(meter.state_arrays())
     assert other.driving == 12 and other.still.tolist() == list(range(len(CAUSES)))
     assert np.array_equal(other.map, meter.map) and other.map is not meter.map
+    meter.long[:] = np.arange(len(CAUSES)) + 1
+    meter.run, meter.run_task = np.array([3, 0, 21]), np.array([8, -1, 9])
+    other.restore_arrays(meter.state_arrays())
+    assert other.long.tolist() == list(range(1, len(CAUSES) + 1))
+    assert other.run.tolist() == [3, 0, 21] and other.run_task.tolist() == [8, -1, 9]
     other.restore_arrays({})  # written before the meter existed
     assert other.driving == 0 and not other.still.any() and not other.map.any()
+    assert not other.long.any() and other.run.shape == other.run_task.shape == (0,)
+    with pytest.raises(ValueError, match="stalls/long"):
+        other.restore_arrays({"long": np.zeros(2)})
+    with pytest.raises(ValueError, match="stalls/run"):
+        other.restore_arrays({"run": np.zeros(3), "run_task": np.zeros(2)})
     with pytest.raises(ValueError, match="stalls/still"):
         other.restore_arrays({"driving": np.array(1), "still": np.zeros(3)})
     with pytest.raises(ValueError, match="stalls/map"):
         other.restore_arrays({"driving": np.array(1), "map": np.zeros((len(CAUSES), 2, 2))})
+
+
+def test_standing_past_long_s_is_long_and_a_stand_ends_when_it_moves_or_changes_task(counting):
+    """Periods of 0.1 s, ``LONG_S`` = 2 s: robot 0 stands alone (no robot near) 25 periods:
+    the last 5 are long. It moves one period and stands 21 more: 1 long. Standing on, it gets
+    another task: a new stand, 20 periods and none long. Robot 1 drives all along; robot 2
+    stands idle (not driving: never counted)."""
+    d, i = DRIVING, IDLE
+    meter = StallMeter(0.1)
+    assert meter.long_after == round(LONG_S / 0.1) == 20
+    xy, th = [(0, 0), (10, 0), (20, 0)], [0.0, 0.0, 0.0]
+
+    def period(v0, task0=5):
+        meter.sample(_fleet([d, d, i], [v0, 1.0, 0.0], xy, th, [task0, 7, -1]), np.zeros(3, bool))
+
+    for _ in range(25):
+        period(0.0)
+    assert meter.still[CAUSES.index("no_robot")] == 25 and meter.long.sum() == 5
+    assert meter.run.tolist() == [25, 0, 0]
+    period(0.5)  # moves: the stand ends
+    for _ in range(21):
+        period(0.0)
+    assert meter.long.sum() == 6
+    for _ in range(20):
+        period(0.0, task0=6)  # the same place, another task: a new stand
+    assert meter.long.sum() == 6 and meter.run.tolist() == [20, 0, 0]
+    out = meter.summary()
+    assert out["still_long_s_no_robot"] == pytest.approx(0.6)
+    assert out["still_s_no_robot"] == pytest.approx(6.6)
+    assert sum(v for k, v in out.items() if k.startswith("still_long_s_")) == pytest.approx(0.6)
+    meter.sample(_fleet([i, i, i], [0.0] * 3, xy, th, [-1] * 3), np.zeros(3, bool))
+    assert meter.run.tolist() == [0, 0, 0]  # nobody drives: every stand over
+
+
+def test_long_standing_goes_under_the_cause_of_each_period(counting):
+    """A robot stands 30 periods; a robot at work is beside it in periods 15-24: of the 10
+    long periods (20-29), 5 are 'beside a robot at work' and 5 'no robot'."""
+    d, w = DRIVING, WORKING
+    meter = StallMeter(0.1)
+    for k in range(30):
+        there = 15 <= k < 25
+        xy = [(0, 0), (0.8, 0) if there else (30, 0)]
+        meter.sample(_fleet([d, w], [0.0, 0.0], xy, [0.0, 0.0], [3, 4]), np.zeros(2, bool))
+    long = dict(zip(CAUSES, meter.long.tolist(), strict=True))
+    assert long["no_robot"] == 5 and long["robot_at_work"] == 5 and sum(long.values()) == 10
 
 
 def test_head_on_in_a_single_lane_is_counted_as_head_on():

@@ -121,6 +121,11 @@ class Jobs:
             refresh=refresh,
         )
 
+    def use_planner(self, planner: GridPlanner) -> None:
+        """Plan with ``planner`` from now on, here and in the sites' and jam rules (the world's
+        fault model hands over one that knows where the broken robots stand)."""
+        self.planner = self.sites.planner = self.jams.planner = planner
+
     def assign(
         self, batch: Batch, assignment: np.ndarray, bids: np.ndarray, won: np.ndarray, xy_m
     ) -> None:

@@ -319,7 +319,7 @@ class PymunkWorld:
         self.jobs.refresh_lists()
         if self.faults is not None:  # the broken robots stand where they broke: plan round them
             broken = self.faults.broken_now()
-            self.jobs.planner = self.path_planner
+            self.jobs.use_planner(self.path_planner)
             self.jobs.broken[:] = broken
             self._mark_broken(broken)
 
@@ -354,7 +354,7 @@ class PymunkWorld:
         the broken robots stand (the cost models keep ``planner``, without them)."""
         self.faults.reset(np.random.default_rng(fault_seed_sequence(rng)))
         self.path_planner = GridPlanner(self.spatial)
-        self.jobs.planner = self.path_planner
+        self.jobs.use_planner(self.path_planner)
         self.marked_z_ = self.fleet.last_z_m.copy()
 
     def take_abandoned(self) -> list[Abandon]:

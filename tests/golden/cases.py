@@ -36,6 +36,13 @@ SHORT_SPATIAL = (
 )
 NO_AVOIDANCE = (("spatial.avoidance", "none"),)  # today's law, as the cases were recorded
 ORCA = (("spatial.avoidance", "orca"),)
+FAULTS = (  # robots break every 2 min on average and are repaired in 30 s (sim.faults)
+    ("faults.mttf_s", 120.0),
+    ("faults.repair_s", 30.0),
+    ("stream.n_sets", 3),
+    ("stream.learn_sets", 2),
+    ("stream.test_sets", 1),
+)
 SHORT_LARGE = (
     ("stream.n_sets", 1),
     ("stream.rounds_per_set", 6),
@@ -86,6 +93,8 @@ CASES = (
         SHORT_SPATIAL + ORCA,
         "array",
     ),
+    # broken robots stand where they broke and every planner of the world plans round them
+    ("spatial_orca_faults_warehouse", "warehouse", "market", "distance", 0, FAULTS + ORCA, None),
 )
 
 

@@ -30,6 +30,7 @@ BACKOFF_S = 1.5  # a stuck robot reverses on a random arc this long, then replan
 RECOVERED_M = 5.0  # this much closer to its site than where it got stuck, its tries start again
 YIELD_TRIGGER_M = 0.3  # a driving robot this close (beyond contact) to an idle one asks it to move
 DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
+REPAIR_WAIT_S = 300.0  # a robot whose only ways are blocked by broken robots waits this long
 
 
 class Jobs:
@@ -98,6 +99,8 @@ class Jobs:
         self.done: list[Completion] = []
         self.failures = 0
         self.broken = np.zeros(len(fleet.state), dtype=bool)  # set by the world (sim.faults)
+        self.base_planner = planner  # the scenario's obstacles alone (use_planner adds robots)
+        self.blocked = np.zeros(len(fleet.state), dtype=bool)  # waiting for a repair
         # the same refresh as refresh(), without a reference back to the jobs (no cycle to collect)
         refresh = functools.partial(refresh_schedule, fleet, schedule, clock, keep_lists)
         self.sites = Sites(
@@ -109,6 +112,7 @@ class Jobs:
             bodies=bodies,
             reach_m=reach_m,
             broken=self.broken,
+            blocked=self.blocked,
             refresh=refresh,
         )
         self.jams = Jams(
@@ -131,12 +135,12 @@ class Jobs:
     ) -> None:
         """Start the tasks ``won`` of ``batch``: plan each robot's path from ``xy_m`` (m, 2).
 
-        A task whose site has no path from its robot fails at once as unreachable.
+        A task whose site has no path from its robot fails at once as unreachable, unless only
+        broken robots stand in every way: then the robot waits for a repair
+        (:meth:`wait_for_repair`).
         """
-        f, t, sp = self.fleet, self.clock.time_s, self.spatial
-        v_max = self.follower.v_max_mps
-        slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + BACKOFF_S) + 30.0
-        rows, paths = [], []
+        f, t = self.fleet, self.clock.time_s
+        rows, paths, blocked = [], [], []
         for k in won.tolist():
             j = int(assignment[k])
             if f.task[j] >= 0:
@@ -155,6 +159,9 @@ class Jobs:
             self.follower.clear(j)
             path = self.planner.path(xy_m[j], site)
             if not len(path):
+                if self.blocked_by_broken(xy_m[j], site):
+                    blocked.append(j)
+                    continue
                 self.finish(j, t, False, f"unreachable: no path from {_xy(xy_m[j])} to {_xy(site)}")
                 continue
             rows.append(j)
@@ -162,10 +169,64 @@ class Jobs:
         for j, length in zip(rows, self.follower.set_paths(rows, paths), strict=True):
             f.state[j] = DRIVING
             f.left_m[j], f.progress_m[j], f.t_progress_s[j] = length, np.inf, t
-            f.deadline_s[j] = t + self.exec_time_s[f.task_type[j]] + 4 * length / v_max + slack
+            f.deadline_s[j] = self.deadline_s(j, length, t)
+        for j in blocked:
+            f.state[j] = DRIVING
+            self.wait_for_repair(j, (float(xy_m[j][0]), float(xy_m[j][1])), t)
         self.schedule.site_check_s = -np.inf
         self.sites.queue_check_s = -np.inf
         self.refresh()
+
+    def deadline_s(self, j: int, length_m: float, t: float) -> float:
+        """When robot j, given its way of ``length_m`` at ``t``, must begin work by: four times
+        the way at top speed, the work, every recovery try and half a minute."""
+        sp = self.spatial
+        slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + BACKOFF_S) + 30.0
+        v_max = self.follower.v_max_mps
+        return t + self.exec_time_s[self.fleet.task_type[j]] + 4 * length_m / v_max + slack
+
+    def blocked_by_broken(self, xy, site) -> bool:
+        """True if only broken robots stand between ``xy`` and ``site``: the planner that knows
+        where they stand finds no way, the one with the scenario's obstacles alone does."""
+        if self.planner is self.base_planner or not self.broken.any():
+            return False
+        return bool(len(self.base_planner.path(xy, site)))
+
+    def wait_for_repair(self, j: int, xy: tuple[float, float], t: float) -> None:
+        """Robot j (driving) has no way to its site while broken robots stand in it: it holds
+        where it is (a path to its own position; its stuck clock stopped, so it is drawn as
+        waiting) until a repair opens a way (:meth:`retry_blocked`), for at most
+        ``REPAIR_WAIT_S`` more than its task would have had."""
+        f = self.fleet
+        site = (f.site[j].real, f.site[j].imag)
+        way = self.base_planner.path(xy, site)
+        length = float(np.linalg.norm(np.diff(way, axis=0), axis=1).sum()) if len(way) else 0.0
+        self.blocked[j] = True
+        self.follower.set_path(j, np.array([xy, xy], dtype=float))
+        f.left_m[j] = length
+        f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
+        f.deadline_s[j] = self.deadline_s(j, length, t) + REPAIR_WAIT_S
+
+    def retry_blocked(self, t: float) -> None:
+        """Broken robots were repaired (or moved): each robot waiting for a repair plans again
+        and, with a way now, drives on, its deadline counted afresh from now."""
+        rows = self.blocked.nonzero()[0].tolist()
+        if not rows:
+            return
+        f, z = self.fleet, self.fleet.last_z_m
+        changed = False
+        for j in rows:
+            path = self.planner.path((z[j].real, z[j].imag), (f.site[j].real, f.site[j].imag))
+            if not len(path):
+                continue
+            self.blocked[j] = False
+            length = self.follower.set_paths([j], [path])[0]
+            f.left_m[j], f.progress_m[j], f.t_progress_s[j] = length, np.inf, t
+            f.deadline_s[j] = self.deadline_s(j, length, t)
+            changed = True
+        if changed:
+            self.schedule.site_check_s = -np.inf
+            self.refresh()
 
     def busy_until_s(self, t: float) -> np.ndarray:
         """(m,) estimated end of each robot's task (``t`` if free): path left at top speed plus
@@ -214,7 +275,10 @@ class Jobs:
         if t > self.schedule.next_deadline_s:
             late = ((f.task >= 0) & (f.state == DRIVING) & (f.deadline_s < t)).nonzero()[0]
             for j in late.tolist():
-                self.finish(j, t, False, "timeout: not at work by its deadline", False)
+                why = "timeout: not at work by its deadline"
+                if self.blocked[j]:
+                    why = "unreachable: broken robots in every way to its site until its deadline"
+                self.finish(j, t, False, why, False)
             if late.size:
                 self.refresh()
 
@@ -243,6 +307,7 @@ class Jobs:
         f.replan[j] = False
         f.backoff_until_s[j] = -np.inf
         f.t_progress_s[j] = np.inf
+        self.blocked[j] = False
         self.follower.clear(j)
         if self.clear_sites:
             self.sites.release(j)
@@ -261,6 +326,7 @@ class Jobs:
         f.backoff_until_s[j] = -np.inf
         f.t_progress_s[j] = np.inf
         f.yielding[j] = False
+        self.blocked[j] = False
         self.sites.release(j)
         self.follower.clear(j)
         self.refresh()
@@ -332,8 +398,13 @@ class Jobs:
         """Robot j has backed off: a new path from ``xy`` to its site, or fail as unreachable."""
         f = self.fleet
         f.replan[j] = False
-        path = self.planner.path(xy, (f.site[j].real, f.site[j].imag))
+        site = (f.site[j].real, f.site[j].imag)
+        path = self.planner.path(xy, site)
         if not len(path):
+            if self.blocked_by_broken(xy, site):
+                self.wait_for_repair(j, xy, t)
+                self.refresh()
+                return
             self.finish(j, t, False, f"unreachable: no path from {_xy(xy)} after a recovery")
             return
         self.follower.set_path(j, path)

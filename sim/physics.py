@@ -404,7 +404,8 @@ class PymunkWorld:
 
     def _mark_broken(self, broken: np.ndarray) -> None:
         """The path planner's obstacles: the scenario's, and a square the size of a robot
-        where each broken robot stands (it is grown by the radius and clearance like any)."""
+        where each broken robot stands (it is grown by the radius and clearance like any); then
+        the robots that wait for a repair plan again (``Jobs.retry_blocked``)."""
         r = self.spatial.drive.radius_m
         z = self.fleet.last_z_m
         self.marked_z_ = z.copy()
@@ -413,6 +414,7 @@ class PymunkWorld:
             for x, y in zip(z.real[broken].tolist(), z.imag[broken].tolist(), strict=True)
         ]
         self.path_planner.set_obstacles([*self.spatial.obstacles, *squares])
+        self.jobs.retry_blocked(self.time_s)  # a repair may have opened a way
 
     def summary(self, record=None) -> dict:
         """JSON-able physics statistics of the run so far: contacts begun robot-robot and

@@ -48,6 +48,8 @@ class Sites:
         reach_m: robot centres closer than this are touching, m.
         broken: (m,) robots broken down (``sim.faults``), shared with the owner and written
             by the world in place; a broken robot steps nowhere.
+        blocked: (m,) driving robots waiting for a repair (every way to their site blocked by
+            broken robots), shared with the owner: they are not in a site's queue.
         refresh: brings the schedule up to date after an event (:meth:`sim.jobs.Jobs.refresh`).
 
     Attributes (per robot, (m,)):
@@ -69,6 +71,7 @@ class Sites:
         bodies: list,
         reach_m: float,
         broken: np.ndarray,
+        blocked: np.ndarray,
         refresh: Callable[[], None],
     ) -> None:
         self.fleet, self.schedule = fleet, schedule
@@ -76,6 +79,7 @@ class Sites:
         self.bodies = bodies
         self.reach_m = reach_m
         self.broken = broken
+        self.blocked = blocked
         self.refresh = refresh
         m = len(fleet.state)
         self.slotted = np.zeros(m, dtype=bool)
@@ -149,7 +153,7 @@ class Sites:
         of a robot let in after holding moves on by the time it held, and while it holds it
         has ``HOLD_MAX_S`` more. Schedules the next check."""
         f, z = self.fleet, self.fleet.last_z_m
-        driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t)
+        driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t) & ~self.blocked
         if not driving.any():
             self.queue_check_s = np.inf
             return

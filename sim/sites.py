@@ -135,6 +135,7 @@ class Sites:
                 continue
             f.site[j] = cand[k]
             self.slotted[j] = True
+            self.blocked[j] = False  # a robot waiting for a repair has a way to a slot
             self.follower.set_path(j, path)
             f.progress_m[j], f.t_progress_s[j] = np.inf, t
             changed = True

@@ -716,6 +716,19 @@ def test_newcomer_takes_the_nearest_free_service_slot_beside_a_robot_at_work():
     assert f.site[0] == k3 and w.schedule.resting is True
 
 
+def test_a_robot_waiting_for_a_repair_that_gets_a_slot_waits_no_more():
+    """Robot 0 waits near its site for a repair (``Jobs.wait_for_repair``: broken robots
+    close its way) while robot 1 works on the service point: given a free slot it drives
+    there, and is no longer waiting."""
+    w = orca_world([(4.0, 5.0), (10.0, 5.0)])
+    f, jobs = w.fleet, w.jobs
+    service(w, 8.5 + 5.2j)
+    jobs.blocked[0] = True
+    jobs.sites.take_slots([0], f.last_z_m, at(w, 12.0))
+    assert f.site[0] == slot(10 + 5j, 2) and jobs.sites.slotted[0]
+    assert jobs.blocked.tolist() == [False, False]
+
+
 def test_slots_in_an_obstacle_near_a_standing_robot_or_another_robots_goal_are_not_taken():
     post = [((8.7, 4.8), (9.1, 4.8), (9.1, 5.2), (8.7, 5.2))]  # grown by 0.35 m: covers slot 2
     w = orca_world([(4.0, 5.6), (10.0, 5.0), (12.0, 8.0), (14.0, 8.0)], obstacles=post)

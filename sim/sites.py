@@ -107,8 +107,7 @@ class Sites:
         service point, each goes to the nearest free service slot instead (``SLOTS`` points on
         a ring two robot radii plus ``SLOT_GAP_M`` around it, clear of obstacles, of standing
         robots and of the slots other robots drive to) and works there; with none free it
-        waits where it is for the service point. An idle robot on the service point steps
-        clear instead (:meth:`step_clear`), unless it is broken."""
+        waits where it is for the service point."""
         f, r = self.fleet, self.controller.radius_m
         ring, room = 2.0 * r + SLOT_GAP_M, 2.0 * r + 0.5 * SLOT_GAP_M
         standing = ((f.state != DRIVING) & ~f.yielding).nonzero()[0]
@@ -120,8 +119,7 @@ class Sites:
             if not len(standing) or np.abs(z[standing] - site).min() >= room:
                 continue  # the service point is free
             on_it = standing[np.abs(z[standing] - site) < room]
-            if (f.state[on_it] == IDLE).all() and not self.broken[on_it].any():
-                # finished there: it steps clear (a broken robot cannot: use a slot)
+            if (f.state[on_it] == IDLE).all():  # finished there: it steps clear
                 idle += [int(b) for b in on_it if not f.yielding[b] and int(b) not in idle]
                 continue
             cand = site + ring * np.exp(2j * np.pi * np.arange(SLOTS) / SLOTS)

@@ -729,22 +729,6 @@ def test_a_robot_waiting_for_a_repair_that_gets_a_slot_waits_no_more():
     assert jobs.blocked.tolist() == [False, False]
 
 
-def test_beside_a_broken_robot_on_the_service_point_the_newcomer_takes_a_slot():
-    """An idle robot on the service point steps clear for a newcomer; a broken one cannot, so
-    the newcomer works from the nearest free slot instead of waiting for the repair."""
-    w = orca_world([(4.0, 5.0), (10.0, 5.0)])
-    f, jobs = w.fleet, w.jobs
-    service(w, 8.5 + 5.2j, IDLE)
-    jobs.broken[1] = True
-    jobs.sites.take_slots([0], f.last_z_m, at(w, 12.0))
-    assert f.site[0] == slot(10 + 5j, 2) and jobs.sites.slotted.tolist() == [True, False]
-    assert not f.yielding[1]  # not asked to step clear
-    w2 = orca_world([(4.0, 5.0), (10.0, 5.0)])  # the same, not broken: it steps clear
-    service(w2, 8.5 + 5.2j, IDLE)
-    w2.jobs.sites.take_slots([0], w2.fleet.last_z_m, at(w2, 12.0))
-    assert w2.fleet.site[0] == 10 + 5j and w2.fleet.yielding[1]
-
-
 def test_slots_in_an_obstacle_near_a_standing_robot_or_another_robots_goal_are_not_taken():
     post = [((8.7, 4.8), (9.1, 4.8), (9.1, 5.2), (8.7, 5.2))]  # grown by 0.35 m: covers slot 2
     w = orca_world([(4.0, 5.6), (10.0, 5.0), (12.0, 8.0), (14.0, 8.0)], obstacles=post)

@@ -73,7 +73,8 @@ WALL_THICKNESS_M = 1.0
 # A space dropped at a set boundary is freed by a full garbage collection (its collision
 # handlers and the space hold each other), which costs tens of ms whatever the space's size:
 # one runs once the dropped spaces hold this many robots in all (every set from 250 robots on;
-# every 25 sets of a 10-robot run, which then holds up to about 2 MiB more).
+# every 25 sets of a 10-robot run, whose RSS then levels off 1.3 MiB higher in paper_spatial and
+# 3.6 MiB in the warehouse: RSS after 500 rebuilds, a probe; README, speed paragraph).
 GC_ROBOTS = 250
 
 

@@ -414,7 +414,8 @@ class PymunkWorld:
             ((x - r, y - r), (x + r, y - r), (x + r, y + r), (x - r, y + r))
             for x, y in zip(z.real[broken].tolist(), z.imag[broken].tolist(), strict=True)
         ]
-        self.path_planner.set_obstacles([*self.spatial.obstacles, *squares])
+        static = self.spatial.obstacles  # what self.planner sees: its pairs are looked up
+        self.path_planner.set_obstacles([*static, *squares], known=(self.planner, len(static)))
         self.jobs.retry_blocked(self.time_s)  # a repair may have opened a way
 
     def summary(self, record=None) -> dict:

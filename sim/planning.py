@@ -99,10 +99,16 @@ class GridPlanner:
         self.box_ = (*(self.lo_ - _TOL_M).tolist(), *(self.hi_ + _TOL_M).tolist())
         self.set_obstacles(spatial.obstacles)
 
-    def set_obstacles(self, obstacles) -> None:
+    def set_obstacles(self, obstacles, known: tuple[GridPlanner, int] | None = None) -> None:
         """Plan around these convex polygons (m, counter-clockwise) from now on, instead of
         the scenario's; every cached distance (goal fields, the fleet's distance field) is
-        dropped with the old ones."""
+        dropped with the old ones.
+
+        ``known``: (a planner, n), whose obstacles block the same segments between this
+        planner's vertices as the first n of these do (the same ones, or those of them near a
+        box that holds every vertex here). Whether two of its vertices see each other is then
+        looked up in its visibility graph, and only the obstacles past the n are tested
+        (:meth:`_visible`); the graph is the same as without it."""
         self.obstacles = tuple(
             tuple(map(tuple, np.asarray(p, dtype=float).tolist())) for p in obstacles
         )
@@ -130,23 +136,56 @@ class GridPlanner:
         self.buckets_ = BoxBuckets(boxes, typical_size(boxes))
         verts = np.concatenate(polys) if polys else np.zeros((0, 2))
         self.vertices_ = verts[self.free(verts)]
-        self._build_graph()
+        self.vertex_at_: dict[tuple[float, float], int] | None = None
+        self._build_graph(known)
         self._fields: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
         self._occupancy: np.ndarray | None = None
         self.field_: DistanceField | None = None
 
-    def _build_graph(self) -> None:
-        """All-pairs geodesics between the vertices: ``apsp_`` (V, V) m, ``pred_`` (V, V)."""
+    def _build_graph(self, known: tuple[GridPlanner, int] | None = None) -> None:
+        """All-pairs geodesics between the vertices: ``apsp_`` (V, V) m, ``pred_`` (V, V);
+        ``seen_`` (V (V - 1) / 2,) which pairs i < j see each other (``np.triu_indices``
+        order). ``known``: as :meth:`set_obstacles`."""
         v = self.vertices_
         nv = len(v)
         i, j = np.triu_indices(nv, k=1)
-        ok = ~self.blocked(v[i], v[j])
+        ok = ~self.blocked(v[i], v[j]) if known is None else self._visible(*known, i, j)
+        self.seen_ = ok
         i, j = i[ok], j[ok]
         w = np.linalg.norm(v[i] - v[j], axis=1) + 1e-12  # coincident vertices stay joined
         graph = coo_matrix((w, (i, j)), shape=(nv, nv)).tocsr()
         self.apsp_, self.pred_ = shortest_path(
             graph, method="D", directed=False, return_predecessors=True
         )
+
+    def _visible(self, known: GridPlanner, n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """Whether vertices i[s] and j[s] see each other, :meth:`_build_graph`'s test: a pair
+        of ``known``'s vertices (found by their coordinates: the test depends on nothing
+        else) sees each other if it does there and no obstacle past the first ``n`` blocks
+        it; every other pair is tested in full (``known``, ``n``: as :meth:`set_obstacles`)."""
+        v = self.vertices_
+        at = known.vertex_index()
+        g = np.array([at.get(p, -1) for p in map(tuple, v.tolist())], dtype=np.intp)
+        gi, gj = g[i], g[j]
+        old = (gi >= 0) & (gj >= 0) & (gi != gj)
+        ok = np.empty(len(i), dtype=bool)
+        new = ~old
+        ok[new] = ~self.blocked(v[i[new]], v[j[new]])
+        lo, hi = np.minimum(gi[old], gj[old]), np.maximum(gi[old], gj[old])
+        nk = len(known.vertices_)
+        seen = known.seen_[lo * nk - lo * (lo + 1) // 2 + (hi - lo - 1)]
+        rest = np.arange(n, len(self.polygons_))
+        s = np.flatnonzero(old)[seen]
+        ok[old] = seen
+        ok[s] = ~self.blocked(v[i[s]], v[j[s]], rest)
+        return ok
+
+    def vertex_index(self) -> dict[tuple[float, float], int]:
+        """Index of a vertex by its coordinates (x, y) (coincident vertices: one of them)."""
+        if self.vertex_at_ is None:
+            pts = map(tuple, self.vertices_.tolist())
+            self.vertex_at_ = {p: k for k, p in enumerate(pts)}
+        return self.vertex_at_
 
     def free(self, xy: np.ndarray) -> np.ndarray:
         """(n,) True where a robot centre may be: in the arena and clear of every obstacle."""
@@ -173,8 +212,9 @@ class GridPlanner:
             self._occupancy = ~free.reshape(gy.shape)
         return self._occupancy
 
-    def blocked(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(S,) True where segment a[s] -> b[s] passes through the interior of an obstacle.
+    def blocked(self, a: np.ndarray, b: np.ndarray, polys: np.ndarray | None = None) -> np.ndarray:
+        """(S,) True where segment a[s] -> b[s] passes through the interior of an obstacle
+        (of the obstacles ``polys``, indices, if given).
 
         Cyrus-Beck clipping of each segment against each inflated polygon whose bounding box it
         meets; touching a boundary or running along an edge is not blocked.
@@ -182,18 +222,25 @@ class GridPlanner:
         a = np.asarray(a, dtype=float).reshape(-1, 2)
         b = np.asarray(b, dtype=float).reshape(-1, 2)
         out = np.zeros(len(a), dtype=bool)
-        if not len(self.polygons_) or not len(a):
+        bb_lo, bb_hi = self.bb_lo_, self.bb_hi_
+        if polys is not None:
+            bb_lo, bb_hi = bb_lo[polys], bb_hi[polys]
+        if not len(bb_lo) or not len(a):
             return out
         lo, hi = np.minimum(a, b), np.maximum(a, b)
-        step = max(1, _CHUNK // (len(self.polygons_) * self.normals_.shape[1]))
+        step = max(1, _CHUNK // (len(bb_lo) * self.normals_.shape[1]))
         for s0 in range(0, len(a), step):
             sl = slice(s0, s0 + step)
-            meet = (lo[sl, None] < self.bb_hi_[None]).all(axis=2)
-            meet &= (hi[sl, None] > self.bb_lo_[None]).all(axis=2)
+            meet = lo[sl, 0, None] < bb_hi[None, :, 0]
+            meet &= lo[sl, 1, None] < bb_hi[None, :, 1]
+            meet &= hi[sl, 0, None] > bb_lo[None, :, 0]
+            meet &= hi[sl, 1, None] > bb_lo[None, :, 1]
             si, pi = np.nonzero(meet)
             if not si.size:
                 continue
             si += s0
+            if polys is not None:
+                pi = polys[pi]
             out[si[self._clips(a[si], b[si], pi)]] = True
         return out
 
@@ -477,9 +524,10 @@ class GridPlanner:
         octagon round a disc of ``radius_m`` (the robot's body), grown like every obstacle by
         a robot radius plus the clearance. A start inside such a grown robot is pushed out of
         it first. For the rare re-plan of a robot in a deadlock: it builds a planner of its own
-        (a new visibility graph), milliseconds, and caches nothing; in an arena of more than
-        ``LOCAL_MIN_VERTICES`` obstacle vertices only within ``LOCAL_MARGIN_M`` of the start,
-        the goal and the robots (a path that would leave that box is not found)."""
+        (a new visibility graph, whose pairs of obstacle vertices are looked up in this one's
+        and tested against the robots only), milliseconds, and caches nothing; in an arena of
+        more than ``LOCAL_MIN_VERTICES`` obstacle vertices only within ``LOCAL_MARGIN_M`` of the
+        start, the goal and the robots (a path that would leave that box is not found)."""
         robots = np.asarray(robots, dtype=complex).reshape(-1)
         if not len(robots):
             return self.path(start_xy, goal_xy)
@@ -500,7 +548,7 @@ class GridPlanner:
             near = (self.bb_hi_ >= lo - self.inflate_m).all(axis=1)
             near &= (self.bb_lo_ <= hi + self.inflate_m).all(axis=1)
             obstacles = [o for o, keep in zip(obstacles, near.tolist(), strict=True) if keep]
-        other.set_obstacles(obstacles + octagons)
+        other.set_obstacles(obstacles + octagons, known=(self, len(obstacles)))
         return other.path(start_xy, goal_xy)
 
     def side_step(

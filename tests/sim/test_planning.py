@@ -177,3 +177,67 @@ def test_single_queries_in_python_equal_the_array_versions(obstacles):
     n = min(len(starts), len(goals))
     lengths = [path_length(planner.path(s, g)) for s, g in zip(starts[:n], goals[:n], strict=True)]
     np.testing.assert_allclose(lengths, planner.distances(starts[:n], goals[:n]).diagonal())
+
+
+def _same_graph(a: GridPlanner, b: GridPlanner) -> None:
+    np.testing.assert_array_equal(a.vertices_, b.vertices_)
+    np.testing.assert_array_equal(a.seen_, b.seen_)
+    np.testing.assert_array_equal(a.apsp_, b.apsp_)
+    np.testing.assert_array_equal(a.pred_, b.pred_)
+
+
+def _squares(centres, r: float = 0.25) -> list:
+    return [((x - r, y - r), (x + r, y - r), (x + r, y + r), (x - r, y + r)) for x, y in centres]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_obstacles_added_to_known_ones_give_the_graph_built_from_scratch(seed):
+    """set_obstacles(..., known=(planner, n)) looks the pairs of the planner's vertices up
+    and tests only the obstacles past the n: the same vertices, visibility, geodesics and
+    predecessors bit for bit (squares where robots stand, as the fault world adds them, one
+    on an obstacle vertex and two coincident, so both kinds of pair occur)."""
+    rng = np.random.default_rng(seed)
+    static = (BOX, TRIANGLE, ((2.0, 14.0), (5.0, 14.0), (5.0, 17.0), (2.0, 17.0)))
+    base = GridPlanner(spatial(static))
+    corner = base.vertices_[rng.integers(len(base.vertices_))]
+    centres = [tuple(corner + 0.35), *rng.uniform(1.0, 19.0, (5, 2)).tolist()]
+    centres.append(centres[-1])
+    obstacles = [*static, *_squares(centres)]
+    fast, slow = GridPlanner(spatial(static)), GridPlanner(spatial(static))
+    fast.set_obstacles(obstacles, known=(base, len(static)))
+    slow.set_obstacles(obstacles)
+    _same_graph(fast, slow)
+    assert len(fast.vertices_) > len(base.vertices_) and not fast.seen_.all()
+
+
+def test_path_around_in_a_local_box_builds_the_graph_it_would_from_scratch(monkeypatch):
+    """In a large arena path_around keeps the obstacles near a box and reuses the arena's
+    visibility for their vertices: each throwaway graph equals the one built without."""
+    boxes = tuple(
+        ((x, y), (x + 1.0, y), (x + 1.0, y + 1.0), (x, y + 1.0))
+        for x in range(5, 60, 6)
+        for y in range(5, 60, 6)
+    )
+    sp = SpatialSpec(64.0, 64.0, boxes, (((2.0, 2.0),),), DriveSpec())
+    pl = GridPlanner(sp)
+    built = []
+    plain = GridPlanner.set_obstacles
+
+    def spy(self, obstacles, known=None):
+        plain(self, obstacles, known)
+        if known is not None:
+            ref = GridPlanner.__new__(GridPlanner)
+            ref.spatial, ref.inflate_m, ref.tol_m = self.spatial, self.inflate_m, self.tol_m
+            ref.lo_, ref.hi_, ref.box_ = self.lo_, self.hi_, self.box_
+            plain(ref, obstacles)
+            built.append((self, ref))
+
+    monkeypatch.setattr(GridPlanner, "set_obstacles", spy)
+    rng = np.random.default_rng(3)
+    for _ in range(12):
+        start = rng.uniform(2.0, 62.0, 2)
+        robots = start[0] + 1j * start[1] + rng.normal(0.0, 1.5, 4) + 1j * rng.normal(0.0, 1.5, 4)
+        pl.path_around(tuple(start), tuple(rng.uniform(2.0, 62.0, 2)), robots, 0.25)
+    assert len(built) == 12
+    for fast, slow in built:
+        _same_graph(fast, slow)

@@ -142,7 +142,7 @@ class PymunkWorld:
             space.add(shape)
         self.motors = Motors(space, drive, self.starts_, ROBOT, self.headings_, self.buffers_[0])
         self.contacts = ContactMonitor(space, ROBOT, WALL, self.buffers_[1])
-        self.stalls = StallMeter(self.substeps * self.dt_s, sp.width_m, sp.height_m)
+        self.stalls = StallMeter(self.substeps * self.dt_s, sp.width_m, sp.height_m, m)
         self.space = space
         self.clock = Clock(self.dt_s)
         self.goal_s_, self.last_ctrl_step_ = 0.0, -1

@@ -64,10 +64,15 @@ class StallMeter:
     Args:
         period_s: the control period, s.
         width_m, height_m: the arena, for the map of where robots stand (none without them).
+        n_robots: the fleet's size, if known: a checkpoint's stands must be of that many
+            robots (0: not checked).
     """
 
-    def __init__(self, period_s: float, width_m: float = 0.0, height_m: float = 0.0) -> None:
+    def __init__(
+        self, period_s: float, width_m: float = 0.0, height_m: float = 0.0, n_robots: int = 0
+    ) -> None:
         self.period_s = period_s
+        self.n_robots = n_robots
         self.driving = 0  # robot-periods driving (state DRIVING)
         self.still = np.zeros(len(CAUSES), dtype=np.int64)  # robot-periods standing, by cause
         self.long = np.zeros(len(CAUSES), dtype=np.int64)  # ... beyond LONG_S into a stand
@@ -248,6 +253,10 @@ class StallMeter:
         run_task = np.asarray(arrays.get("run_task", np.full(len(run), -1)), dtype=np.int64)
         if run.ndim != 1 or run_task.shape != run.shape:
             raise ValueError(f"stalls/run: shapes {run.shape} and {run_task.shape} differ")
+        if self.n_robots and len(run) not in (0, self.n_robots):  # 0: no period sampled yet
+            raise ValueError(
+                f"stalls/run: {len(run)} robots' stands, the fleet has {self.n_robots}"
+            )
         self.run, self.run_task = run.copy(), run_task.copy()
 
 

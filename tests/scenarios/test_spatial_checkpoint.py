@@ -247,9 +247,11 @@ def test_rebuild_frees_the_old_spaces_and_reuses_the_batch_buffers(tmp_path):
     assert all(r() is None for r in old[:-1]) and old[-1]() is world.space
 
 
-def test_a_checkpoint_whose_world_does_not_fit_is_one_line_and_exit_2(tmp_path, capsys):
-    """A damaged checkpoint (the stall map of another arena) stops ``--resume`` with one line
-    naming the file and the array, exit code 2, and leaves the outputs as they were."""
+@pytest.mark.parametrize("damage", ["map", "stands"])
+def test_a_checkpoint_whose_world_does_not_fit_is_one_line_and_exit_2(tmp_path, capsys, damage):
+    """A damaged checkpoint (the stall map of another arena, or the stands of a fleet one robot
+    larger) stops ``--resume`` with one line naming the file and the array, exit code 2, and
+    leaves the outputs as they were."""
     from learning.checkpoint import save_checkpoint
     from scenarios.cli import main
 
@@ -258,11 +260,19 @@ def test_a_checkpoint_whose_world_does_not_fit_is_one_line_and_exit_2(tmp_path, 
     args = ["run", scenario, "--allocator", "market", "--no-progress", "--out", str(out)]
     assert main([*args, "--checkpoint"]) == 0
     arrays, meta = load_checkpoint(out / "checkpoint.npz")
-    arrays["world/stalls/map"] = np.zeros((7, 3, 3), dtype=np.int64)
+    if damage == "map":
+        arrays["world/stalls/map"] = np.zeros((7, 3, 3), dtype=np.int64)
+        want = "checkpoint.npz: world/stalls/map: expected shape"
+    else:
+        m = len(arrays["world/stalls/run"])
+        assert m == load_scenario(scenario).n_robots  # the meter sampled: one stand per robot
+        arrays["world/stalls/run"] = np.zeros(m + 1, dtype=np.int64)
+        arrays["world/stalls/run_task"] = np.full(m + 1, -1, dtype=np.int64)
+        want = f"checkpoint.npz: world/stalls/run: {m + 1} robots' stands, the fleet has {m}"
     save_checkpoint(out / "checkpoint.npz", arrays, meta)
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     capsys.readouterr()
     assert main([*args, "--resume"]) == 2
     err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "checkpoint.npz: world/stalls/map: expected shape" in err
+    assert "\n" not in err and want in err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before

@@ -151,6 +151,12 @@ def test_counts_survive_a_checkpoint_and_old_checkpoints_restore_zero():
         other.restore_arrays({"driving": np.array(1), "still": np.zeros(3)})
     with pytest.raises(ValueError, match="stalls/map"):
         other.restore_arrays({"driving": np.array(1), "map": np.zeros((len(CAUSES), 2, 2))})
+    sized = StallMeter(0.1, 3.0, 2.0, n_robots=3)  # the fleet's size known: stands checked
+    sized.restore_arrays(meter.state_arrays())
+    assert sized.run.tolist() == [3, 0, 21]
+    sized.restore_arrays({"run": np.zeros(0), "run_task": np.zeros(0)})  # no period yet
+    with pytest.raises(ValueError, match="stalls/run: 4 robots' stands, the fleet has 3"):
+        sized.restore_arrays({"run": np.zeros(4), "run_task": np.zeros(4)})
 
 
 def test_standing_past_long_s_is_long_and_a_stand_ends_when_it_moves_or_changes_task(counting):

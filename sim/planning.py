@@ -108,28 +108,28 @@ class GridPlanner:
         planner's vertices as the first n of these do (the same ones, or those of them near a
         box that holds every vertex here). Whether two of its vertices see each other is then
         looked up in its visibility graph, and only the obstacles past the n are tested
-        (:meth:`_visible`); the graph is the same as without it."""
+        (:meth:`_visible`); the graph is the same as without it. The grown shapes of its
+        obstacles are taken from it too (:meth:`_shape`, the same computation)."""
         self.obstacles = tuple(
             tuple(map(tuple, np.asarray(p, dtype=float).tolist())) for p in obstacles
         )
-        polys = [inflate(np.asarray(p, dtype=float), self.inflate_m) for p in self.obstacles]
+        same = known is not None and known[0].inflate_m == self.inflate_m
+        had = known[0].shapes_ if same else {}
+        self.shapes_ = {o: had.get(o) or self._shape(o) for o in self.obstacles}
+        shapes = [self.shapes_[o] for o in self.obstacles]
+        polys = [shape[0] for shape in shapes]
         self.polygons_ = polys
         n_edges = max((len(p) for p in polys), default=1)
         self.normals_ = np.zeros((len(polys), n_edges, 2))
         self.offsets_ = np.ones((len(polys), n_edges))  # padding edges: 0 < 1 always holds
         self.real_ = np.zeros((len(polys), n_edges), dtype=bool)
-        for k, p in enumerate(polys):
-            n, c = halfplanes(p)
+        for k, (p, n, c, *_) in enumerate(shapes):
             self.normals_[k, : len(p)], self.offsets_[k, : len(p)] = n, c
             self.real_[k, : len(p)] = True
-        self.bb_lo_ = np.array([p.min(axis=0) for p in polys]).reshape(-1, 2)
-        self.bb_hi_ = np.array([p.max(axis=0) for p in polys]).reshape(-1, 2)
-        self.scalar_ = []  # the same as Python floats, for single queries (blocked_one, free_one)
-        for k, p in enumerate(polys):
-            normal, offset = halfplanes(p)
-            pairs = zip(normal.tolist(), offset.tolist(), strict=True)
-            edges = [(nx, ny, c) for (nx, ny), c in pairs]
-            self.scalar_.append((*self.bb_lo_[k].tolist(), *self.bb_hi_[k].tolist(), edges))
+        self.bb_lo_ = np.array([shape[3] for shape in shapes]).reshape(-1, 2)
+        self.bb_hi_ = np.array([shape[4] for shape in shapes]).reshape(-1, 2)
+        # the same as Python floats, for single queries (blocked_one, free_one)
+        self.scalar_ = [(*lo, *hi, edges) for *_, lo, hi, edges in shapes]
         boxes = [
             (*lo, *hi) for lo, hi in zip(self.bb_lo_.tolist(), self.bb_hi_.tolist(), strict=True)
         ]
@@ -141,6 +141,17 @@ class GridPlanner:
         self._fields: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
         self._occupancy: np.ndarray | None = None
         self.field_: DistanceField | None = None
+
+    def _shape(self, obstacle: tuple) -> tuple:
+        """An obstacle (a tuple of its corners) grown by ``inflate_m``: the polygon (P, 2), its
+        outward normals (P, 2) and offsets (P,) (:func:`halfplanes`), its bounding box's low
+        and high corner and its edges (normal x, normal y, offset), as Python floats."""
+        poly = inflate(np.asarray(obstacle, dtype=float), self.inflate_m)
+        normal, offset = halfplanes(poly)
+        pairs = zip(normal.tolist(), offset.tolist(), strict=True)
+        edges = [(nx, ny, c) for (nx, ny), c in pairs]
+        lo, hi = poly.min(axis=0).tolist(), poly.max(axis=0).tolist()
+        return poly, normal, offset, lo, hi, edges
 
     def _build_graph(self, known: tuple[GridPlanner, int] | None = None) -> None:
         """All-pairs geodesics between the vertices: ``apsp_`` (V, V) m, ``pred_`` (V, V);

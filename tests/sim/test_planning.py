@@ -208,6 +208,10 @@ def test_obstacles_added_to_known_ones_give_the_graph_built_from_scratch(seed):
     slow.set_obstacles(obstacles)
     _same_graph(fast, slow)
     assert len(fast.vertices_) > len(base.vertices_) and not fast.seen_.all()
+    assert all(fast.polygons_[k] is base.polygons_[k] for k in range(len(static)))  # reused
+    np.testing.assert_array_equal(fast.normals_, slow.normals_)
+    np.testing.assert_array_equal(fast.offsets_, slow.offsets_)
+    assert fast.scalar_ == slow.scalar_
 
 
 def test_path_around_in_a_local_box_builds_the_graph_it_would_from_scratch(monkeypatch):

@@ -199,7 +199,7 @@ class Jams:
         z = f.last_z_m
         u = (z[k] - z[j]) / max(abs(z[k] - z[j]), 1e-9)
         side = z[j] + 1j * u * np.array([1.0, -1.0]) * (2.0 * r + LANE_GAP_M)
-        free = self.planner.free(np.column_stack([side.real, side.imag]))
+        free = np.array([self.planner.free_one(p.real, p.imag) for p in side.tolist()])
         if not free.any():
             return True
         standing = z[f.state != DRIVING] if standing is None else standing

@@ -530,7 +530,9 @@ class GridPlanner:
             pts.append(goal)
         return np.array(pts)
 
-    def path_around(self, start_xy, goal_xy, robots: np.ndarray, radius_m: float) -> np.ndarray:
+    def path_around(
+        self, start_xy, goal_xy, robots: np.ndarray, radius_m: float, reuse: bool = True
+    ) -> np.ndarray:
         """:meth:`path` with the robots at ``robots`` (x + iy, m) as obstacles too: each an
         octagon round a disc of ``radius_m`` (the robot's body), grown like every obstacle by
         a robot radius plus the clearance. A start inside such a grown robot is pushed out of
@@ -538,7 +540,9 @@ class GridPlanner:
         (a new visibility graph, whose pairs of obstacle vertices are looked up in this one's
         and tested against the robots only), milliseconds, and caches nothing; in an arena of
         more than ``LOCAL_MIN_VERTICES`` obstacle vertices only within ``LOCAL_MARGIN_M`` of the
-        start, the goal and the robots (a path that would leave that box is not found)."""
+        start, the goal and the robots (a path that would leave that box is not found).
+        ``reuse=False`` builds the whole graph afresh (the same graph; ``mrta bench`` times
+        both)."""
         robots = np.asarray(robots, dtype=complex).reshape(-1)
         if not len(robots):
             return self.path(start_xy, goal_xy)
@@ -559,7 +563,7 @@ class GridPlanner:
             near = (self.bb_hi_ >= lo - self.inflate_m).all(axis=1)
             near &= (self.bb_lo_ <= hi + self.inflate_m).all(axis=1)
             obstacles = [o for o, keep in zip(obstacles, near.tolist(), strict=True) if keep]
-        other.set_obstacles(obstacles + octagons, known=(self, len(obstacles)))
+        other.set_obstacles(obstacles + octagons, known=(self, len(obstacles)) if reuse else None)
         return other.path(start_xy, goal_xy)
 
     def side_step(

@@ -96,8 +96,9 @@ def bench_sim(
         the loop's time spent in collision avoidance (``sim.control.orca``) and that time per step
         over the bare step, and the same for the site work only avoidance brings
         (:func:`timed_sites`). If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
-        ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; if the
-        planner built its distance field, :func:`field_report`.
+        ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; with
+        avoidance, :func:`replan_report`; if the planner built its distance field,
+        :func:`field_report`.
     """
     rng = np.random.default_rng(0) if rng is None else rng
     out = {}
@@ -151,8 +152,36 @@ def bench_sim(
             out[str(n)]["rounds"] = rounds
             out[str(n)]["round_bids_ms"] = 1e3 * counts["bids_s"] / rounds
             out[str(n)]["round_auction_ms"] = 1e3 * counts["auction_s"] / rounds
+        if avoidance != "none":
+            out[str(n)].update(replan_report(world, rng))
         if world.planner.field_ is not None:
             out[str(n)].update(field_report(world.planner, world.poses()[0], rng))
+    return out
+
+
+def replan_report(world: PymunkWorld, rng: np.random.Generator, calls: int = 20) -> dict:
+    """What the jam rule's re-plan round robots costs (``GridPlanner.path_around``): mean ms
+    of ``calls`` re-plans, each of a random robot to a random task site round the robots
+    within ``sim.jams.AROUND_M`` of it, as the rule builds them (``replan_ms``: the arena's
+    visibility and grown obstacles reused) and with the whole graph built afresh
+    (``replan_fresh_ms``), the same calls in the same run."""
+    from sim.jams import AROUND_M
+
+    z = world.fleet.last_z_m
+    sites = np.asarray(world.spatial.sites[0], dtype=float)
+    radius = world.spatial.drive.radius_m
+    jobs = []
+    for j in rng.integers(0, len(z), size=calls).tolist():
+        close = np.abs(z - z[j]) < AROUND_M
+        close[j] = False
+        site = sites[rng.integers(0, len(sites))]
+        jobs.append(((z[j].real, z[j].imag), tuple(site), z[close]))
+    out = {}
+    for key, reuse in (("replan_ms", True), ("replan_fresh_ms", False)):
+        t0 = time.perf_counter()
+        for start, site, robots in jobs:
+            world.planner.path_around(start, site, robots, radius, reuse=reuse)
+        out[key] = 1e3 * (time.perf_counter() - t0) / calls
     return out
 
 

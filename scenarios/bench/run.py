@@ -185,6 +185,12 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
                 f"avoidance/bare = {r['avoid_bare_ratio']:.2f} ({r['avoid_share']:.0%} of the loop)"
                 f"  site queues/bare = {r['sites_bare_ratio']:.2f} ({r['sites_share']:.0%})"
             )
+            if "replan_ms" in r:
+                say(
+                    f"         a jam's re-plan round robots: {r['replan_ms']:.1f} ms "
+                    f"(graph built afresh: {r['replan_fresh_ms']:.1f} ms, "
+                    f"{r['replan_fresh_ms'] / r['replan_ms']:.1f}x)"
+                )
     if "gif" in parts:
         from scenarios.bench.gif import bench_gif
 

@@ -264,3 +264,6 @@ def test_the_bench_times_avoidance_inside_the_loop():
     # site queues and service slots exist only with avoidance; their time is apart from it
     assert 0.0 < on["sites_share"] < 1.0 - on["avoid_share"]
     assert off["sites_bare_ratio"] == off["sites_share"] == 0.0
+    # the jam rule's re-plan, as the rule builds it and afresh, in the same run
+    assert 0.0 < on["replan_ms"] and 0.0 < on["replan_fresh_ms"]
+    assert "replan_ms" not in off

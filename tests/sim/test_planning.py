@@ -241,7 +241,10 @@ def test_path_around_in_a_local_box_builds_the_graph_it_would_from_scratch(monke
     for _ in range(12):
         start = rng.uniform(2.0, 62.0, 2)
         robots = start[0] + 1j * start[1] + rng.normal(0.0, 1.5, 4) + 1j * rng.normal(0.0, 1.5, 4)
-        pl.path_around(tuple(start), tuple(rng.uniform(2.0, 62.0, 2)), robots, 0.25)
+        goal = tuple(rng.uniform(2.0, 62.0, 2))
+        path = pl.path_around(tuple(start), goal, robots, 0.25)
+        afresh = pl.path_around(tuple(start), goal, robots, 0.25, reuse=False)  # bench baseline
+        np.testing.assert_array_equal(path, afresh)
     assert len(built) == 12
     for fast, slow in built:
         _same_graph(fast, slow)

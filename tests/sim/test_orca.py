@@ -231,6 +231,37 @@ def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it(
     assert steer_walls(np.array([0j]), flat, rows, np.array([1.0]), pref, radius, 1.5, far) is None
 
 
+def test_the_right_hand_bias_holds_only_where_the_body_has_room_to_the_nearest_obstacle(
+    monkeypatch,
+):
+    """A robot at the origin heading east whose one robot half-plane lets it no faster than
+    0.2 m/s east (u.x <= 0.2) prefers 1 m/s east. By default the preference is turned
+    ``RIGHT_BIAS_DEG`` right however near an obstacle (one above it), so the velocity it takes
+    points right of its heading and it turns right. With ``BIAS_ROOM_M`` = 1 m (the variant
+    the README measures) only where the body has more room than that; with less it keeps its
+    heading (the velocity nearest 1 m/s east is 0.2 m/s east). Both sides of the threshold."""
+    from sim.control import orca
+
+    radius = 0.25
+    normal, offset = np.array([[-1.0 + 0j]]), np.array([[-0.2]])
+    rows, z, h = np.array([0]), np.array([0j]), np.array([1.0 + 0j])
+    pref = np.array([1.0 + 0j])
+
+    def turn(room):
+        above = lambda pts: np.full(len(pts), 1j * (radius + room))  # noqa: E731
+        if room == math.inf:  # what the path follower gives with no obstacle at all
+            above = lambda pts: np.full(len(pts), np.inf + 0j)  # noqa: E731
+        out = orca.steer_rows(z, h, rows, normal, offset, pref, radius, 1.5, above)
+        return out[2][0]
+
+    assert orca.BIAS_ROOM_M == -math.inf
+    assert turn(0.05) < -0.1 and turn(3.0) < -0.1 and turn(math.inf) < -0.1
+    monkeypatch.setattr(orca, "BIAS_ROOM_M", 1.0)
+    assert turn(1.05) < -0.1  # room: turned right
+    assert turn(0.95) == 0.0  # beside an obstacle: straight on
+    assert turn(math.inf) < -0.1  # no obstacle at all
+
+
 def test_the_wall_program_never_backs_a_robot_up():
     """The wall program has no robot half-planes, so it must not reverse: a robot backing off
     a wall drove into the robot behind it (the robot-robot impacts of paper_spatial, robots

@@ -14,6 +14,7 @@ import pytest
 from sim.control import orca, orca_small
 from sim.control.orca import (
     _BIG,
+    BIAS_ROOM_M,
     KEEP_RIGHT,
     LANE_AIR_M,
     LANE_NARROW_M,
@@ -87,7 +88,9 @@ def avoid_reference(
     lanes=None,
 ):
     """``sim.control.orca.avoid`` of commit 5f5188e (then ``sim.orca.avoid``), before the
-    staged solve: the oracle. Arguments and result as ``sim.control.orca.avoid``."""
+    staged solve: the oracle; its right-hand bias since taken only where the body has more
+    than ``BIAS_ROOM_M`` of room to the nearest obstacle, as the law now does. Arguments and
+    result as ``sim.control.orca.avoid``."""
     reach = orca_range_m(radius_m, v_max)
     table = neighbour_table(z, rows, reach)
     if table is None:
@@ -116,8 +119,8 @@ def avoid_reference(
     if not bind.any():
         return None
     normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
-    pref = pref * KEEP_RIGHT
     ob = to_obstacle(zi[bind])
+    pref = pref * np.where(np.abs(ob) - radius_m > BIAS_ROOM_M, KEEP_RIGHT, 1.0)
     on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
     normal = np.concatenate([normal, on[:, None]], axis=1)
     offset = np.concatenate([offset, oc[:, None]], axis=1)

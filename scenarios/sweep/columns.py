@@ -26,8 +26,8 @@ METRIC_COLUMNS = (
     "distance_per_task_m",  # spatial: metres driven per completed task (test sets)
     "time_per_task_s",  # spatial: allocation to done, per completed task
     "time_to_start_s",  # spatial: allocation to arrival, per completed task
-    "failed_tasks",  # spatial: tasks reported failed
-    *SPATIAL_CONTACTS,  # spatial: contacts begun per robot-hour, by kind (sim.contacts)
+    "failed_tasks",  # spatial: tasks reported failed over the whole run, learning sets too
+    *SPATIAL_CONTACTS,  # spatial: contacts begun per robot-hour, by kind, whole run (sim.contacts)
     "scarce_types",  # the types with the fewest willing robots at the end, ";"-joined
     "completion_scarce_low",  # completion of those types (mean over them), low priority
     "completion_scarce_high",  # ... high priority

@@ -11,6 +11,13 @@ Differential drive cannot take any velocity at once. It turns toward u and drive
 heading h only at a speed v whose velocity v h itself lies in every half-plane (a second,
 one-dimensional program along h): the velocity it really drives is always an ORCA velocity, so
 the reciprocal guarantee holds for what the wheels do, not only for the holonomic u it aims at.
+Held exactly, that program can freeze a robot: on a line (offset 0), heading a hair into it
+while u runs along it, it gets no forward speed, and its turn toward u, proportional to that
+hair, brings the heading ever nearer u but never across (the warehouse, market, seed 6: a robot
+stood 30 s on a shelf's line until its task failed). ``ROBOT_SLACK_MPS`` and
+``WALL_SLACK_MPS`` let a command close on robots' and walls' lines that fast; both 0 by
+default, the law as measured in the README, which has what 5 mm/s did ("A robot frozen on a
+line").
 This replaces Alonso-Mora et al.'s (2010) tracking-error bound by an exact constraint; the
 radius is still enlarged by ``MARGIN_M`` for the one control period a command is held while the
 robot turns (an arc, not the straight line ORCA assumes).
@@ -58,6 +65,8 @@ LANE_NARROW_M = 1.0  # ... where that free width is narrower than this, m
 LANE_NEAR_M = 0.5  # ... and a wall or obstacle is this close to the robot's body, m
 MAX_NEIGHBOURS = 6  # the nearest robots within range that give a half-plane
 BACK_SHARE = 0.3  # share of the top speed a robot may reverse at to honour its half-planes
+ROBOT_SLACK_MPS = 0.0  # the forward speed may close on a robot's line this fast, m/s
+WALL_SLACK_MPS = 0.0  # ... on a wall's or lane's line, m/s
 RIGHT_BIAS_DEG = 30.0  # a robot with a binding half-plane prefers this much to the right
 KEEP_RIGHT = np.exp(-1j * np.radians(RIGHT_BIAS_DEG))  # that turn as a unit complex factor
 BIAS_ROOM_M = -np.inf  # ... only where the body has more room than this to an obstacle, m
@@ -248,11 +257,12 @@ def solve_enumerated(
     return cand[np.arange(len(pref)), best]
 
 
-def forward_speed(normal, offset, h, v_want, v_max: float) -> np.ndarray:
-    """Speed v along each heading h nearest ``v_want`` with v h in every half-plane and
-    -``BACK_SHARE`` v_max <= v <= v_max; where none is, the middle of what the lines leave."""
+def forward_speed(normal, offset, h, v_want, v_max: float, slack=0.0) -> np.ndarray:
+    """Speed v along each heading h nearest ``v_want`` with v h in every half-plane (less
+    ``slack``, m/s, per line or for all: n . v h >= c - slack) and -``BACK_SHARE`` v_max <= v
+    <= v_max; where none is, the middle of what the lines leave."""
     a = (h[:, None] * normal.conj()).real  # a v >= c
-    c = offset
+    c = offset - slack
     pos, neg = a > 1e-9, a < -1e-9
     lo = np.where(pos, c / np.where(pos, a, 1.0), -np.inf).max(axis=1)
     hi = np.where(neg, c / np.where(neg, a, 1.0), np.inf).min(axis=1)
@@ -355,15 +365,15 @@ def wall_lines(z, rows, radius_m, to_obstacle, lanes=None, ob=None):
     return normal, offset
 
 
-def command(normal, offset, pref, hi, v_max):
+def command(normal, offset, pref, hi, v_max, slack=0.0):
     """(v, omega) of robots with headings ``hi`` under the half-planes ``normal``, ``offset``:
     the velocity u nearest ``pref`` (:func:`solve`), the turn toward it and the forward speed
-    along the heading that keeps every half-plane (:func:`forward_speed`)."""
+    along the heading that keeps every half-plane, less ``slack`` (:func:`forward_speed`)."""
     u = solve(normal, offset, pref, v_max)
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
-    v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max)
+    v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max, slack)
     return v, err * HEADING_GAIN
 
 
@@ -375,10 +385,11 @@ def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, l
     has more than ``BIAS_ROOM_M`` of room to the nearest obstacle (everywhere, by default)."""
     ob = to_obstacle(z[rows])
     on, oc = wall_lines(z, rows, radius_m, to_obstacle, lanes, ob)
+    slack = np.repeat([ROBOT_SLACK_MPS, WALL_SLACK_MPS], [normal.shape[1], on.shape[1]])
     normal = np.concatenate([normal, on], axis=1)
     offset = np.concatenate([offset, oc], axis=1)
     bias = np.where(np.abs(ob) - radius_m > BIAS_ROOM_M, KEEP_RIGHT, 1.0)
-    v, w = command(normal, offset, pref * bias, h[rows], v_max)
+    v, w = command(normal, offset, pref * bias, h[rows], v_max, slack)
     return rows, v, w
 
 
@@ -408,5 +419,5 @@ def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=No
     if not bind.any():
         return None
     hi, cap = h[rows[bind]], np.abs(v_plan[bind])
-    v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max)
+    v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max, WALL_SLACK_MPS)
     return rows[bind], np.minimum(np.maximum(v, 0.0), cap), w

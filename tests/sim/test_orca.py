@@ -107,10 +107,52 @@ def test_half_plane_of_a_head_on_pair_asks_each_for_half_and_lets_sideways_throu
 
 
 def test_forward_speed_keeps_the_driven_velocity_in_every_half_plane():
+    """Exactly without slack; with ``slack`` (walls: ``WALL_SLACK_MPS``) closing on a line at
+    that speed and no faster."""
+    from sim.control.orca import WALL_SLACK_MPS
+
     normal = np.array([[-1.0 + 0j, 1j]])  # u.x <= 0.4, u.y >= -0.2
     offset = np.array([[-0.4, -0.2]])
     v = forward_speed(normal, offset, np.array([1.0 + 0j]), np.array([1.5]), 1.5)
     assert v[0] == pytest.approx(0.4)
+    wall = np.array([[-1j]]), np.array([[0.0]])  # a wall above, the robot on its line
+    into = np.array([np.exp(1j * np.radians(30.0))])
+    assert forward_speed(*wall, into, np.array([1.0]), 1.5)[0] == 0.0
+    v = forward_speed(*wall, into, np.array([1.0]), 1.5, WALL_SLACK_MPS)
+    assert v[0] * into[0].imag == pytest.approx(WALL_SLACK_MPS)
+
+
+def test_the_slack_knobs_release_a_robot_frozen_on_a_line(monkeypatch):
+    """The freeze seen in the warehouse (market, seed 6, robot 4 stood 30 s by a shelf until
+    its task failed): a robot exactly on the line of a wall above it (offset 0), heading west
+    2e-4 rad into the wall, preferring west and a little into the wall, takes u along the
+    wall, and the exact forward program gives it no speed (the law by default, README "A
+    robot frozen on a line"). ``WALL_SLACK_MPS`` lets it drive along the wall (the wall
+    program), ``ROBOT_SLACK_MPS`` the same on a robot's line (the robot program)."""
+    from sim.control import orca
+
+    radius = 0.25
+    on_line = radius + orca.MARGIN_M + orca.WALL_GAP_M
+    wall = lambda pts: np.full(len(pts), 1j * on_line)  # noqa: E731
+    far = lambda pts: np.full(len(pts), np.inf + 0j)  # noqa: E731
+    h = np.array([np.exp(1j * (np.pi - 2e-4))])  # west, a hair north (into the line)
+    pref, rows, z = np.array([-1.5 + 0.5j]), np.array([0]), np.array([0j])
+
+    def walls():
+        out = orca.steer_walls(z, h, rows, np.array([1.0]), pref, radius, 1.5, wall)
+        return out[1][0]
+
+    def robots():  # a robot line in place of the wall's, no obstacle near
+        n, c = np.array([[-1j]]), np.array([[0.0]])
+        return orca.steer_rows(z, h, rows, n, c, pref, radius, 1.5, far)[1][0]
+
+    assert orca.WALL_SLACK_MPS == 0.0 and orca.ROBOT_SLACK_MPS == 0.0
+    assert walls() == 0.0 and robots() == 0.0  # frozen
+    monkeypatch.setattr(orca, "WALL_SLACK_MPS", 0.005)
+    assert walls() == 1.0  # drives along the wall at its plan's speed
+    assert robots() == 0.0
+    monkeypatch.setattr(orca, "ROBOT_SLACK_MPS", 0.005)
+    assert robots() > 1.0
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])
@@ -207,10 +249,10 @@ def test_in_a_narrow_lane_orca_keeps_the_velocity_inside_the_free_width(monkeypa
 def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it():
     """A robot 0.32 m from a wall (0.02 m beyond the line at ``radius + MARGIN_M``) heads 30
     degrees into it at 1 m/s: its line binds, the forward speed it gets keeps the driven
-    velocity in the half-plane (here: it stops; the wall program never backs) and it turns
+    velocity in the half-plane, less ``WALL_SLACK_MPS`` (the wall program never backs) and it turns
     toward the velocity nearest its preferred one, along the wall, away from it. Heading along
     the wall at 0.5 m from it, nothing binds: None (its plan stays)."""
-    from sim.control.orca import MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, steer_walls
+    from sim.control.orca import MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, WALL_SLACK_MPS, steer_walls
 
     radius, dist = 0.25, 0.32
     wall = lambda pts: np.full(len(pts), -1j * dist)  # noqa: E731  a wall below each robot
@@ -222,7 +264,7 @@ def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it(
     sel, v, w = out
     assert sel.tolist() == [0]
     closing = -(v[0] * h[0]).imag  # toward the wall
-    allowed = (dist - radius - MARGIN_M - WALL_GAP_M) / TAU_OBSTACLE_S
+    allowed = (dist - radius - MARGIN_M - WALL_GAP_M) / TAU_OBSTACLE_S + WALL_SLACK_MPS
     assert closing <= allowed + 1e-12
     assert 0.0 <= v[0] <= 1.0
     assert w[0] > 0.0  # turns left, away from the wall below

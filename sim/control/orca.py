@@ -14,10 +14,12 @@ the reciprocal guarantee holds for what the wheels do, not only for the holonomi
 Held exactly, that program can freeze a robot: on a line (offset 0), heading a hair into it
 while u runs along it, it gets no forward speed, and its turn toward u, proportional to that
 hair, brings the heading ever nearer u but never across (the warehouse, market, seed 6: a robot
-stood 30 s on a shelf's line until its task failed). ``ROBOT_SLACK_MPS`` and
-``WALL_SLACK_MPS`` let a command close on robots' and walls' lines that fast; both 0 by
-default, the law as measured in the README, which has what 5 mm/s did ("A robot frozen on a
-line").
+stood 24 s on a shelf's line until its task failed). So a line the heading runs nearly along
+(``|n . h|`` below ``SLACK_SHALLOW``, about 5.7 degrees) may be closed on at
+``ROBOT_SLACK_MPS`` (robots' lines) or ``WALL_SLACK_MPS`` (walls' and lanes'): at most 0.5 mm
+a control period, and only by a robot driving almost parallel to the line. The README has the
+measurements ("A robot frozen on a line"), and what a slack on every line did (a contact in
+the 20-robot circle swap).
 This replaces Alonso-Mora et al.'s (2010) tracking-error bound by an exact constraint; the
 radius is still enlarged by ``MARGIN_M`` for the one control period a command is held while the
 robot turns (an arc, not the straight line ORCA assumes).
@@ -65,8 +67,9 @@ LANE_NARROW_M = 1.0  # ... where that free width is narrower than this, m
 LANE_NEAR_M = 0.5  # ... and a wall or obstacle is this close to the robot's body, m
 MAX_NEIGHBOURS = 6  # the nearest robots within range that give a half-plane
 BACK_SHARE = 0.3  # share of the top speed a robot may reverse at to honour its half-planes
-ROBOT_SLACK_MPS = 0.0  # the forward speed may close on a robot's line this fast, m/s
-WALL_SLACK_MPS = 0.0  # ... on a wall's or lane's line, m/s
+ROBOT_SLACK_MPS = 0.005  # the forward speed may close on a robot's line this fast, m/s ...
+WALL_SLACK_MPS = 0.005  # ... on a wall's or lane's line, m/s ...
+SLACK_SHALLOW = 0.1  # ... where the heading runs nearly along it: |n . h| below this
 RIGHT_BIAS_DEG = 30.0  # a robot with a binding half-plane prefers this much to the right
 KEEP_RIGHT = np.exp(-1j * np.radians(RIGHT_BIAS_DEG))  # that turn as a unit complex factor
 BIAS_ROOM_M = -np.inf  # ... only where the body has more room than this to an obstacle, m
@@ -259,10 +262,11 @@ def solve_enumerated(
 
 def forward_speed(normal, offset, h, v_want, v_max: float, slack=0.0) -> np.ndarray:
     """Speed v along each heading h nearest ``v_want`` with v h in every half-plane (less
-    ``slack``, m/s, per line or for all: n . v h >= c - slack) and -``BACK_SHARE`` v_max <= v
-    <= v_max; where none is, the middle of what the lines leave."""
+    ``slack``, m/s, per line or for all, on the lines the heading runs nearly along: n . v h
+    >= c - slack where |n . h| < ``SLACK_SHALLOW``) and -``BACK_SHARE`` v_max <= v <= v_max;
+    where none is, the middle of what the lines leave."""
     a = (h[:, None] * normal.conj()).real  # a v >= c
-    c = offset - slack
+    c = offset - np.where(np.abs(a) < SLACK_SHALLOW, slack, 0.0)
     pos, neg = a > 1e-9, a < -1e-9
     lo = np.where(pos, c / np.where(pos, a, 1.0), -np.inf).max(axis=1)
     hi = np.where(neg, c / np.where(neg, a, 1.0), np.inf).min(axis=1)

@@ -107,28 +107,35 @@ def test_half_plane_of_a_head_on_pair_asks_each_for_half_and_lets_sideways_throu
 
 
 def test_forward_speed_keeps_the_driven_velocity_in_every_half_plane():
-    """Exactly without slack; with ``slack`` (walls: ``WALL_SLACK_MPS``) closing on a line at
-    that speed and no faster."""
-    from sim.control.orca import WALL_SLACK_MPS
+    """Exactly without slack; with ``slack``, a line the heading runs nearly along (``|n . h|``
+    below ``SLACK_SHALLOW``) may be closed on at that speed and no faster; a line it crosses
+    more steeply, not at all."""
+    from sim.control.orca import SLACK_SHALLOW
 
     normal = np.array([[-1.0 + 0j, 1j]])  # u.x <= 0.4, u.y >= -0.2
     offset = np.array([[-0.4, -0.2]])
     v = forward_speed(normal, offset, np.array([1.0 + 0j]), np.array([1.5]), 1.5)
     assert v[0] == pytest.approx(0.4)
+    v = forward_speed(normal, offset, np.array([1.0 + 0j]), np.array([1.5]), 1.5, 0.005)
+    assert v[0] == pytest.approx(0.4)  # the heading crosses the binding line head on
     wall = np.array([[-1j]]), np.array([[0.0]])  # a wall above, the robot on its line
-    into = np.array([np.exp(1j * np.radians(30.0))])
-    assert forward_speed(*wall, into, np.array([1.0]), 1.5)[0] == 0.0
-    v = forward_speed(*wall, into, np.array([1.0]), 1.5, WALL_SLACK_MPS)
-    assert v[0] * into[0].imag == pytest.approx(WALL_SLACK_MPS)
+    for deg, slack in [(30.0, 0.0), (30.0, 0.005), (3.0, 0.0)]:
+        into = np.array([np.exp(1j * np.radians(deg))])
+        assert forward_speed(*wall, into, np.array([1.0]), 1.5, slack)[0] == 0.0
+    into = np.array([np.exp(1j * np.radians(3.0))])
+    assert into[0].imag < SLACK_SHALLOW
+    v = forward_speed(*wall, into, np.array([1.0]), 1.5, 0.005)
+    assert v[0] * into[0].imag == pytest.approx(0.005)
 
 
-def test_the_slack_knobs_release_a_robot_frozen_on_a_line(monkeypatch):
-    """The freeze seen in the warehouse (market, seed 6, robot 4 stood 30 s by a shelf until
+def test_a_robot_frozen_on_a_line_is_released_by_the_slack(monkeypatch):
+    """The freeze seen in the warehouse (market, seed 6, robot 4 stood 24 s by a shelf until
     its task failed): a robot exactly on the line of a wall above it (offset 0), heading west
     2e-4 rad into the wall, preferring west and a little into the wall, takes u along the
-    wall, and the exact forward program gives it no speed (the law by default, README "A
-    robot frozen on a line"). ``WALL_SLACK_MPS`` lets it drive along the wall (the wall
-    program), ``ROBOT_SLACK_MPS`` the same on a robot's line (the robot program)."""
+    wall. Held exactly (both slacks 0) the forward program gives it no speed, and its turn,
+    proportional to 2e-4 rad, never brings the heading across. With the slacks (the law's
+    defaults) it drives along the wall (the wall program, ``WALL_SLACK_MPS``) and along a
+    robot's line (the robot program, ``ROBOT_SLACK_MPS``), each knob for its own lines."""
     from sim.control import orca
 
     radius = 0.25
@@ -146,13 +153,14 @@ def test_the_slack_knobs_release_a_robot_frozen_on_a_line(monkeypatch):
         n, c = np.array([[-1j]]), np.array([[0.0]])
         return orca.steer_rows(z, h, rows, n, c, pref, radius, 1.5, far)[1][0]
 
-    assert orca.WALL_SLACK_MPS == 0.0 and orca.ROBOT_SLACK_MPS == 0.0
-    assert walls() == 0.0 and robots() == 0.0  # frozen
-    monkeypatch.setattr(orca, "WALL_SLACK_MPS", 0.005)
+    assert orca.WALL_SLACK_MPS == orca.ROBOT_SLACK_MPS == 0.005
     assert walls() == 1.0  # drives along the wall at its plan's speed
-    assert robots() == 0.0
-    monkeypatch.setattr(orca, "ROBOT_SLACK_MPS", 0.005)
     assert robots() > 1.0
+    monkeypatch.setattr(orca, "WALL_SLACK_MPS", 0.0)
+    assert walls() == 0.0  # frozen
+    assert robots() > 1.0
+    monkeypatch.setattr(orca, "ROBOT_SLACK_MPS", 0.0)
+    assert robots() == 0.0  # frozen
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])

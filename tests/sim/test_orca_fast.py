@@ -20,9 +20,11 @@ from sim.control.orca import (
     LANE_NARROW_M,
     LANE_NEAR_M,
     MARGIN_M,
+    ROBOT_SLACK_MPS,
     TAU_OBSTACLE_S,
     TAU_S,
     WALL_GAP_M,
+    WALL_SLACK_MPS,
     forward_speed,
     half_planes,
     neighbour_table,
@@ -89,8 +91,8 @@ def avoid_reference(
 ):
     """``sim.control.orca.avoid`` of commit 5f5188e (then ``sim.orca.avoid``), before the
     staged solve: the oracle; its right-hand bias since taken only where the body has more
-    than ``BIAS_ROOM_M`` of room to the nearest obstacle, as the law now does. Arguments and
-    result as ``sim.control.orca.avoid``."""
+    than ``BIAS_ROOM_M`` of room to the nearest obstacle, and its forward program with the
+    slacks, as the law now does. Arguments and result as ``sim.control.orca.avoid``."""
     reach = orca_range_m(radius_m, v_max)
     table = neighbour_table(z, rows, reach)
     if table is None:
@@ -119,6 +121,7 @@ def avoid_reference(
     if not bind.any():
         return None
     normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
+    k_robots = normal.shape[1]
     ob = to_obstacle(zi[bind])
     pref = pref * np.where(np.abs(ob) - radius_m > BIAS_ROOM_M, KEEP_RIGHT, 1.0)
     on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
@@ -137,7 +140,8 @@ def avoid_reference(
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
-    v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max)
+    slack = np.repeat([ROBOT_SLACK_MPS, WALL_SLACK_MPS], [k_robots, normal.shape[1] - k_robots])
+    v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max, slack)
     return rows[bind], v, err * HEADING_GAIN
 
 

@@ -9,20 +9,21 @@ half-plane and the speed disc; when there is none, the one that violates the hal
 
 Differential drive cannot take any velocity at once. It turns toward u and drives along its
 heading h only at a speed v whose velocity v h itself lies in every half-plane (a second,
-one-dimensional program along h): the velocity it really drives is always an ORCA velocity, so
-the reciprocal guarantee holds for what the wheels do, not only for the holonomic u it aims at.
-Held exactly, that program can freeze a robot: on a line (offset 0), heading a hair into it
-while u runs along it, it gets no forward speed, and its turn toward u, proportional to that
-hair, brings the heading ever nearer u but never across (the warehouse, market, seed 6: a robot
-stood 24 s on a shelf's line until its task failed). So a line the heading runs nearly along
-(``|n . h|`` below ``SLACK_SHALLOW``, about 5.7 degrees) may be closed on at
-``ROBOT_SLACK_MPS`` (robots' lines) or ``WALL_SLACK_MPS`` (walls' and lanes'): at most 0.5 mm
-a control period, and only by a robot driving almost parallel to the line. The README has the
-measurements ("A robot frozen on a line"), and what a slack on every line did (a contact in
-the 20-robot circle swap).
+one-dimensional program along h): the velocity it really drives is always an ORCA velocity
+(to within the slack below), so the reciprocal guarantee holds for what the wheels do, not
+only for the holonomic u it aims at.
 This replaces Alonso-Mora et al.'s (2010) tracking-error bound by an exact constraint; the
 radius is still enlarged by ``MARGIN_M`` for the one control period a command is held while the
 robot turns (an arc, not the straight line ORCA assumes).
+Held exactly, the one-dimensional program can freeze a robot: on a line (offset 0), heading a
+hair into it while u runs along it, it gets no forward speed, and its turn toward u,
+proportional to that hair, brings the heading ever nearer u but never across (the warehouse,
+market, seed 6: a robot stood 24 s on a shelf's line until its task failed). So a line the
+heading runs nearly along (``|n . h|`` below ``SLACK_SHALLOW``, about 5.7 degrees) may be closed
+on at ``ROBOT_SLACK_MPS`` (robots' lines) or ``WALL_SLACK_MPS`` (walls' and lanes'): at most 0.5
+mm a control period, and only by a robot driving almost parallel to the line. The README has the
+measurements ("A robot frozen on a line"), and what a slack on every line did (a contact in the
+20-robot circle swap).
 
 Walls: a robot that no robot half-plane binds still has the obstacle lines (the nearest
 obstacle point, and the two sides of a single lane): where its plan leaves one of them,

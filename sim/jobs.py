@@ -23,6 +23,7 @@ from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import SpatialSpec
 from sim.sites import YIELD_STEP_M, YIELD_TIMEOUT_S, Sites
+from sim.stalls import NEAR_M
 from sim.tasks import Batch
 from sim.world import Abandon, Completion
 
@@ -345,8 +346,10 @@ class Jobs:
         self.schedule.stuck_check_s = stalest + timeout
 
     def recover(self, j: int, t: float) -> None:
-        """Robot j is stuck: wait for a robot at work that boxes it in, go round a standing one,
-        or back off on a random arc and replan; after ``max_recoveries`` tries, fail."""
+        """Robot j is stuck: wait for a robot at work that boxes it in; with collision avoidance
+        on, have an idle robot beside it step aside (:meth:`ask_idle`), go round or give way
+        (``sim.jams``); go round a standing one, or back off on a random arc and replan; after
+        ``max_recoveries`` tries, fail."""
         sp, f = self.spatial, self.fleet
         b, z = int(f.blocker[j]), f.last_z_m
         blocked = b >= 0 and f.near_m[j] < self.reach_m + YIELD_TRIGGER_M
@@ -359,7 +362,7 @@ class Jobs:
             if taken.any():  # its site is taken by a robot at work: wait for it to step clear
                 f.t_progress_s[j] = float(f.work_end_s[taken].min())
                 return
-            if self.jams.go_round(j, t) or self.jams.give_way(j, t):
+            if self.ask_idle(j, t) or self.jams.go_round(j, t) or self.jams.give_way(j, t):
                 return
         f.recoveries[j] += 1
         f.stuck_left_m[j] = f.left_m[j]  # where it got stuck (path left to drive)
@@ -384,6 +387,51 @@ class Jobs:
         f.replan[j] = True
         self.follower.clear(j)
         self.refresh()
+
+    def ask_idle(self, j: int, t: float) -> bool:
+        """Collision avoidance on, robot j stuck: the nearest idle robot within ``NEAR_M`` (not
+        stepping aside already, not broken) steps ``YIELD_STEP_M`` aside of j's heading (the side
+        away from j first, then the other, then straight on; a free end point half a step clear
+        of the other robots, reached by a planned path at most two steps long, so a robot that
+        stands closer to a wall than the planner's free space can step off it too), and j waits
+        one stuck timeout for it, spending a try. The speed caps ask only an idle robot straight
+        ahead (:meth:`make_way`); ORCA stops a robot for one beside it too: an idle robot
+        against the shelf at the mouth of a single-lane gap, off to one side, held a robot in
+        the gap until its task failed (warehouse, QL-MRTA, seed 4, with ORCA's 10 neighbours).
+        False, and nothing changes, if no idle robot is near, j has used its tries or no step is
+        free."""
+        f = self.fleet
+        if f.recoveries[j] >= self.spatial.max_recoveries:
+            return False
+        z = f.last_z_m
+        idle = (f.state == IDLE) & ~f.yielding & ~self.broken
+        dist = np.where(idle, np.abs(z - z[j]), np.inf)
+        k = int(dist.argmin())
+        if not dist[k] < NEAR_M:
+            return False
+        travel = np.exp(1j * self.bodies[j].angle)
+        lateral = 1j * travel
+        side = 1.0 if ((z[k] - z[j]) * lateral.conj()).real >= 0.0 else -1.0
+        close = np.abs(z - z[k]) < 2.0 * YIELD_STEP_M
+        close[k] = False
+        for way in (side * lateral, -side * lateral, travel):
+            end = z[k] + YIELD_STEP_M * way
+            if not self.planner.free_one(end.real, end.imag):
+                continue
+            if close.any() and np.abs(z[close] - end).min() < 0.5 * YIELD_STEP_M:
+                continue
+            path = self.planner.path((z[k].real, z[k].imag), (end.real, end.imag))
+            if (
+                len(path)
+                and np.linalg.norm(np.diff(path, axis=0), axis=1).sum() <= 2.0 * YIELD_STEP_M
+            ):
+                self.follower.set_paths([k], [path])
+                f.yielding[k], f.yield_until_s[k] = True, t + YIELD_TIMEOUT_S
+                f.recoveries[j] += 1
+                f.t_progress_s[j] = t
+                self.refresh()
+                return True
+        return False
 
     def recovered(self, rows: list[int]) -> None:
         """Robots ``rows`` came ``RECOVERED_M`` closer to their site than where they last got

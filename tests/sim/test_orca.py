@@ -433,6 +433,47 @@ def test_a_jam_in_a_single_lane_gap_is_broken_by_the_robot_whose_way_back_is_fre
     assert world.contacts.robot_hits == world.contacts.wall_hits == 0
 
 
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_an_idle_robot_against_the_wall_at_a_gap_mouth_steps_aside_for_a_stuck_robot(control):
+    """The warehouse's cross aisle again (a 1 m gap in a 1 m thick wall): robot 0 drives north
+    through it while robot 1 stands idle against the wall at its far mouth, 0.18 m off the
+    gap's middle, not straight ahead (so the speed caps do not ask it to move) and closer to
+    the wall than the planner's free space. ORCA stops robot 0 in the gap; at the stuck timeout
+    it asks robot 1 to step aside (``Jobs.ask_idle``) and drives on: across in about 19 s,
+    no failure, no contact. Without the rule robot 0 pressed on the idle robot until its task
+    failed (47 s, a robot and a wall contact; QL-MRTA, warehouse seed 4, with 10 neighbours
+    per program)."""
+    from sim.physics import PymunkWorld
+    from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+    from sim.tasks import Batch
+
+    walls = (
+        ((0.0, 4.0), (5.5, 4.0), (5.5, 5.0), (0.0, 5.0)),
+        ((6.5, 4.0), (12.0, 4.0), (12.0, 5.0), (6.5, 5.0)),
+    )
+    goal, idle = (6.0, 8.0), (5.82, 5.26)
+    sp = SpatialSpec(
+        12.0,
+        9.0,
+        walls,
+        ((goal,), (idle,)),
+        DriveSpec(max_wheel_speed_radps=18.75),
+        arrive_tol_m=0.1,
+        stuck_timeout_s=6.0,
+    )
+    robots = (RobotSpec("A", (0,), (6.2, 2.0), 90.0), RobotSpec("B", (1,), idle, 90.0))
+    sc = Scenario("gap", ("T0", "T1"), robots, ((1.0, 1.0),) * 2, (1000.0,) * 2, spatial=sp)
+    world = PymunkWorld(sc, control=control)
+    world.reset(np.random.default_rng(0))
+    one = Batch(0, 0, np.arange(1), np.zeros(1, int), np.zeros(1, bool), np.array([goal]))
+    world.apply(one, np.array([0]), np.ones(1))
+    t = time_to_all_arrive(world, 120.0)
+    assert t <= 2 * sp.stuck_timeout_s + 15.0
+    assert world.jobs.failures == 0
+    assert world.contacts.robot_hits == world.contacts.wall_hits == 0
+    assert abs(world.fleet.last_z_m[1] - complex(*idle)) > 0.5  # robot 1 moved
+
+
 def test_the_wall_screen_drops_only_robots_whose_lines_cannot_bind():
     """``near_walls`` passes over robots far from every obstacle, using the distance it last
     measured less the way the robot moved since. Over 40 periods of 300 robots wandering among

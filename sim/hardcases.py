@@ -100,41 +100,41 @@ class Case:
     least: int
     most: int
     limit_s: float
-    build: Callable  # (n, control, avoidance) -> (world, done(world) or None for "all arrived")
+    build: Callable  # (n, control, avoidance, nudge) -> (world, done(world) or None: all arrived)
 
 
-def _circle(n, control, avoidance):
+def _circle(n, control, avoidance, nudge):
     starts, goals = circle(n)
-    return swap_world(starts, goals, (14.0, 14.0), control, avoidance), None
+    return swap_world(nudge(starts), goals, (14.0, 14.0), control, avoidance), None
 
 
-def _junction(n, control, avoidance):
+def _junction(n, control, avoidance, nudge):
     c = np.array([6.0, 6.0])
     starts = c + np.array([[4.0, 0.0], [0.0, 4.0], [-4.0, 0.0], [0.0, -4.0]])
-    return swap_world(starts, 2.0 * c - starts, (12.0, 12.0), control, avoidance), None
+    return swap_world(nudge(starts), 2.0 * c - starts, (12.0, 12.0), control, avoidance), None
 
 
-def _corridor(n, control, avoidance):
+def _corridor(n, control, avoidance, nudge):
     half = 0.375
     walls = (
         ((4.0, 0.0), (8.0, 0.0), (8.0, 3.0 - half), (4.0, 3.0 - half)),
         ((4.0, 3.0 + half), (8.0, 3.0 + half), (8.0, 6.0), (4.0, 6.0)),
     )
     starts, goals = [(3.5, 3.0), (8.5, 3.0)], [(9.5, 3.0), (2.5, 3.0)]
-    return swap_world(starts, goals, (12.0, 6.0), control, avoidance, walls), None
+    return swap_world(nudge(starts), goals, (12.0, 6.0), control, avoidance, walls), None
 
 
-def _parked(n, control, avoidance):
+def _parked(n, control, avoidance, nudge):
     parked = [(3.0 + 0.7 * k, 3.6) for k in range(n - 1)]
     starts, goals = [(1.0, 3.0), *parked], [(3.0 + 0.7 * (n - 1) + 1.0, 3.0), *parked]
     width = goals[0][0] + 1.0
-    return swap_world(starts, goals, (width, 6.0), control, avoidance), None
+    return swap_world(nudge(starts), goals, (width, 6.0), control, avoidance), None
 
 
-def _site(n, control, avoidance):
+def _site(n, control, avoidance, nudge):
     centre = (10.0, 10.0)
     starts, _ = circle(n, 8.0, centre)
-    world = swap_world(starts, [centre] * n, (20.0, 20.0), control, avoidance)
+    world = swap_world(nudge(starts), [centre] * n, (20.0, 20.0), control, avoidance)
     world.jobs.exec_time_s[:] = SITE_WORK_S
     worked = np.zeros(n, dtype=bool)
 
@@ -162,13 +162,20 @@ def run_case(
     limit_s: float | None = None,
     recorder: bool = False,
     on_tick=None,
+    jitter_m: float = 0.0,
+    seed: int = 0,
 ) -> dict:
     """Run hard case ``name`` with ``robots`` robots (the case's default if None).
+
+    ``jitter_m`` > 0 moves every start by a normal draw of that standard deviation (m, per
+    coordinate, from ``numpy.random.default_rng(seed)``): the crowd cases are chaotic, and
+    whether a run touches must not hang on the exact start (``mrta hardcase --jitter``).
 
     Returns:
         ``{"case", "robots", "avoidance", "control", "time_s" (inf: not all arrived within
         ``limit_s``), "still_driving", "robot_touch", "robot_impact", "wall_touch",
-        "wall_impact", "closest_m" (closest two centres, sampled every 0.1 s), "failed"}``,
+        "wall_impact", "closest_m" (closest two centres, sampled every 0.1 s), "failed",
+        "jitter_m", "seed"}``,
         and ``"trajectory"`` (a ``sim.recording.Trajectory``) when ``recorder`` is set.
 
     Raises:
@@ -182,7 +189,17 @@ def run_case(
         fixed = case.least == case.most
         span = f"exactly {case.least}" if fixed else f"{case.least} to {case.most}"
         raise ValueError(f"hard case {name} takes {span} robots, got {n}")
-    world, done = case.build(n, control, avoidance)
+    if not (math.isfinite(jitter_m) and jitter_m >= 0.0):
+        raise ValueError(f"jitter must be a finite number >= 0 m, got {jitter_m}")
+    rng = np.random.default_rng(seed)
+
+    def nudge(starts):
+        if jitter_m == 0.0:
+            return starts
+        starts = np.asarray(starts, dtype=float)
+        return starts + rng.normal(0.0, jitter_m, starts.shape)
+
+    world, done = case.build(n, control, avoidance, nudge)
     rec = None
     if recorder:
         sp = world.spatial
@@ -224,6 +241,8 @@ def run_case(
         "wall_impact": c.wall_impacts,
         "closest_m": closest[0],
         "failed": world.jobs.failures,
+        "jitter_m": jitter_m,
+        "seed": seed,
     }
     if rec is not None:
         out["trajectory"] = rec.finish()

@@ -318,24 +318,37 @@ def cmd_hardcase(args) -> int:
         raise UserError(f"{args.gif.parent}: output folder does not exist")
     if args.fps > 50:
         raise UserError(f"--fps {args.fps}: a GIF plays at most 50 frames per second")
+    if args.seeds > 1 and args.jitter == 0.0:
+        raise UserError(f"--seeds {args.seeds} without --jitter would repeat one run")
+    if args.seeds > 1 and args.gif is not None:
+        raise UserError("--gif draws one run: use it without --seeds")
     case = CASES[args.case]
     limit = case.limit_s if args.limit_s is None else args.limit_s
     from scenarios.experiments.progress import progress_bar
 
+    seeds = [0] if args.jitter == 0.0 else list(range(1, args.seeds + 1))
     ticks = max(1, round(limit / 0.1))
-    with progress_bar(ticks, f"hardcase: {args.case}", "tick", not args.no_progress) as bar:
-        try:
-            out = run_case(
-                args.case,
-                args.robots,
-                args.control,
-                args.avoidance,
-                args.limit_s,
-                recorder=args.gif is not None,
-                on_tick=lambda _w: bar.update(),
-            )
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
+    runs = []
+    with progress_bar(
+        ticks * len(seeds), f"hardcase: {args.case}", "tick", not args.no_progress
+    ) as bar:
+        for seed in seeds:
+            try:
+                out = run_case(
+                    args.case,
+                    args.robots,
+                    args.control,
+                    args.avoidance,
+                    args.limit_s,
+                    recorder=args.gif is not None,
+                    on_tick=lambda _w: bar.update(),
+                    jitter_m=args.jitter,
+                    seed=seed,
+                )
+            except ValueError as exc:
+                raise UserError(str(exc)) from None
+            runs.append(out)
+    out = runs[0]
     traj = out.pop("trajectory", None)
     if traj is not None:
         width, height = args.size
@@ -346,23 +359,64 @@ def cmd_hardcase(args) -> int:
                 on_frame=bar.update,
             )  # fmt: skip
         out["gif"] = str(args.gif)
+    clean = [{k: (None if v == float("inf") else v) for k, v in r.items()} for r in runs]
     if args.json:
-        print(json.dumps({k: (None if v == float("inf") else v) for k, v in out.items()}))
+        doc = clean[0] if args.jitter == 0.0 else {"runs": clean, **hardcase_summary(runs)}
+        print(json.dumps(doc))
         return 0
-    t = out["time_s"]
+    for r in runs:
+        seed = f"seed {r['seed']}, starts moved by N(0, {args.jitter:g} m): " if seeds[0] else ""
+        print(seed + hardcase_line(args.case, r, limit) + (f"; wrote {args.gif}" if traj else ""))
+    if args.jitter > 0.0:
+        s = hardcase_summary(runs)
+        arrived = s["n_runs"] - s["runs_not_arrived"]
+        print(
+            f"{s['n_runs']} runs: {s['runs_with_robot_contact']} with a robot-robot contact "
+            f"({s['robot_touch']} touch, {s['robot_impact']} impact), "
+            f"{s['runs_with_wall_contact']} with a robot-wall contact; all arrived in "
+            f"{arrived} (mean {s['time_mean_s']:.1f} s, max {s['time_max_s']:.1f} s); closest "
+            f"centres {s['closest_m']:.2f} m; failed tasks {s['failed']}"
+        )
+    return 0
+
+
+def hardcase_line(case: str, r: dict, limit_s: float) -> str:
+    """One run of ``mrta hardcase`` in words."""
+    t = r["time_s"]
     when = (
         f"all arrived in {t:.1f} s"
         if t != float("inf")
-        else f"not all arrived within {limit:g} s: {out['still_driving']} still driving"
+        else f"not all arrived within {limit_s:g} s: {r['still_driving']} still driving"
     )
-    print(
-        f"{args.case}, {out['robots']} robots, avoidance {out['avoidance']}, "
-        f"{out['control']} control: {when}; robot-robot contacts {out['robot_touch']} touch "
-        f"{out['robot_impact']} impact, robot-wall {out['wall_touch']} touch "
-        f"{out['wall_impact']} impact; closest centres {out['closest_m']:.2f} m; "
-        f"failed tasks {out['failed']}" + (f"; wrote {args.gif}" if traj is not None else "")
+    return (
+        f"{case}, {r['robots']} robots, avoidance {r['avoidance']}, "
+        f"{r['control']} control: {when}; robot-robot contacts {r['robot_touch']} touch "
+        f"{r['robot_impact']} impact, robot-wall {r['wall_touch']} touch "
+        f"{r['wall_impact']} impact; closest centres {r['closest_m']:.2f} m; "
+        f"failed tasks {r['failed']}"
     )
-    return 0
+
+
+def hardcase_summary(runs: list[dict]) -> dict:
+    """Counts over runs of one hard case: the runs, those with a robot-robot or robot-wall
+    contact, the contacts of each kind, runs in which not every robot arrived, the mean and
+    largest time of those that did (nan if none), the closest two centres came and the failed
+    tasks."""
+    import math
+
+    times = [r["time_s"] for r in runs if r["time_s"] != float("inf")]
+    return {
+        "n_runs": len(runs),
+        "runs_with_robot_contact": sum(r["robot_touch"] + r["robot_impact"] > 0 for r in runs),
+        "runs_with_wall_contact": sum(r["wall_touch"] + r["wall_impact"] > 0 for r in runs),
+        "robot_touch": sum(r["robot_touch"] for r in runs),
+        "robot_impact": sum(r["robot_impact"] for r in runs),
+        "runs_not_arrived": len(runs) - len(times),
+        "time_mean_s": sum(times) / len(times) if times else math.nan,
+        "time_max_s": max(times) if times else math.nan,
+        "closest_m": min(r["closest_m"] for r in runs),
+        "failed": sum(r["failed"] for r in runs),
+    }
 
 
 def cmd_bench(args) -> int:

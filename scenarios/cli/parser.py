@@ -91,6 +91,17 @@ def int_at_least(lowest: int):
 _positive_int = int_at_least(1)
 
 
+def _non_negative_float(text: str) -> float:
+    """argparse type: a finite number >= 0 with a one-line error otherwise."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (value >= 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return value
+
+
 def _positive_float(text: str) -> float:
     """argparse type: a finite number > 0 with a one-line error otherwise."""
     try:
@@ -360,7 +371,9 @@ def build_parser() -> argparse.ArgumentParser:
         "robots in 17.8 s, 20 in 23.1 s), junction (4 robots cross), corridor (2 robots swap "
         "ends of a 0.75 m corridor), parked (a robot passes n - 1 parked robots), site (n "
         "robots sent to one site, 2 s of work each). Prints the time until every robot arrived, "
-        "the contacts begun (touch or impact) and the closest two centres came.",
+        "the contacts begun (touch or impact) and the closest two centres came; with --jitter "
+        "and --seeds, the same for starts moved by a hair, run by run, and a summary. "
+        "Example: mrta hardcase circle --jitter 1e-4 --seeds 10",
     )
     h.add_argument("case", help="circle, junction, corridor, parked or site")
     h.add_argument(
@@ -383,6 +396,22 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_float,
         default=None,
         help="give up after this much simulated time, s (default: the case's, 60-300 s)",
+    )
+    h.add_argument(
+        "--jitter",
+        type=_non_negative_float,
+        default=0.0,
+        metavar="M",
+        help="move every start by a normal draw of this standard deviation, m (default 0: the "
+        "exact geometry); the crowd cases are chaotic, so a result should hold for any start "
+        "within a hair of it",
+    )
+    h.add_argument(
+        "--seeds",
+        type=_positive_int,
+        default=1,
+        help="with --jitter, run seeds 1..N (one draw of the starts each) and summarise: runs "
+        "with a contact, times (default 1)",
     )
     h.add_argument("--gif", type=Path, default=None, help="also write an animated GIF here")
     _gif_options(h, frames=150, fps=15, width=480)

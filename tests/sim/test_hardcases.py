@@ -51,6 +51,14 @@ def test_circle_points_are_antipodal():
         (["circle", "--robots", "0"], "must be at least 1, got 0"),
         (["circle", "--limit-s", "-1"], "must be a finite number > 0, got -1"),
         (["circle", "--gif", "/nonexistent/dir/x.gif"], "/nonexistent/dir: output folder"),
+        (["circle", "--jitter", "-1"], "must be a finite number >= 0, got -1"),
+        (["circle", "--jitter", "nan"], "must be a finite number >= 0, got nan"),
+        (["circle", "--seeds", "3"], "--seeds 3 without --jitter would repeat one run"),
+        (["circle", "--seeds", "0", "--jitter", "1e-4"], "must be at least 1, got 0"),
+        (
+            ["junction", "--jitter", "1e-4", "--seeds", "2", "--gif", "/tmp/x.gif"],
+            "--gif draws one run: use it without --seeds",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(args, message, capsys):
@@ -99,3 +107,43 @@ def test_the_corridor_jam_is_broken_at_pass_s_not_at_the_stuck_timeout(monkeypat
         assert out["failed"] == 0 and out["still_driving"] == 0
         assert out["robot_touch"] + out["robot_impact"] == 0
     assert off["time_s"] - on["time_s"] >= stuck_s - pass_s - 2.0
+
+
+def test_jitter_moves_the_starts_by_the_seeded_draw_and_repeats_bit_for_bit():
+    """``jitter_m`` moves each start by ``default_rng(seed).normal(0, jitter_m)``: the recorded
+    first positions are the exact starts plus that draw (as the recording's float32 holds them),
+    the same seed gives the same run bit for bit, and 0 gives the exact geometry."""
+    c = np.array([6.0, 6.0])
+    exact = c + np.array([[4.0, 0.0], [0.0, 4.0], [-4.0, 0.0], [0.0, -4.0]])
+    a = run_case("junction", jitter_m=0.05, seed=7, recorder=True)
+    b = run_case("junction", jitter_m=0.05, seed=7, recorder=True)
+    draw = np.random.default_rng(7).normal(0.0, 0.05, exact.shape)
+    assert np.abs(a["trajectory"].positions[0] - (exact + draw)).max() < 1e-5
+    assert np.array_equal(a["trajectory"].positions, b["trajectory"].positions)
+    assert a["time_s"] == b["time_s"] and (a["jitter_m"], a["seed"]) == (0.05, 7)
+    still = run_case("junction", recorder=True)
+    assert np.abs(still["trajectory"].positions[0] - exact).max() < 1e-5
+    with pytest.raises(ValueError, match="jitter must be a finite number >= 0 m"):
+        run_case("junction", jitter_m=-0.1)
+
+
+def test_cli_jitter_runs_seeds_one_to_n_and_the_summary_counts_them(capsys):
+    code = main(["hardcase", "junction", "--jitter", "0.02", "--seeds", "3", "--json"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    runs = doc["runs"]
+    assert [r["seed"] for r in runs] == [1, 2, 3] and doc["n_runs"] == 3
+    assert all(r["jitter_m"] == 0.02 for r in runs)
+    contact = [r["robot_touch"] + r["robot_impact"] > 0 for r in runs]
+    assert doc["runs_with_robot_contact"] == sum(contact)
+    times = [r["time_s"] for r in runs if r["time_s"] is not None]
+    assert doc["runs_not_arrived"] == 3 - len(times)
+    assert doc["time_max_s"] == max(times) and doc["time_mean_s"] == pytest.approx(
+        sum(times) / len(times)
+    )
+    assert doc["closest_m"] == min(r["closest_m"] for r in runs)
+    assert len({r["time_s"] for r in runs} | {r["closest_m"] for r in runs}) > 2  # starts differ
+    main(["hardcase", "junction", "--jitter", "0.02", "--seeds", "2", "--no-progress"])
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 3 and lines[0].startswith("seed 1, starts moved by N(0, 0.02 m)")
+    assert lines[-1].startswith("2 runs: ")

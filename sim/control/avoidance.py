@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.control.orca import LANE_NEAR_M, MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, avoid, steer_walls
+from sim.control import orca as law  # read at call time: one set of knobs for both periods
 from sim.control.orca_small import avoid_small
 from sim.control.protocol import ControlParts
 from sim.recording import DRIVING
@@ -36,7 +36,7 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
         return None
     fol = parts.follower
     args = (z, vel, h, rows, pref[rows], v_want[rows], steering, c.radius_m, c.v_max_mps)
-    return (avoid_small if small else avoid)(*args, c.react_s, fol.to_obstacle, fol.lane_room)
+    return (avoid_small if small else law.avoid)(*args, c.react_s, fol.to_obstacle, fol.lane_room)
 
 
 def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
@@ -68,7 +68,7 @@ def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
     if not len(rows):
         return None
     args = (c.radius_m, c.v_max_mps, fol.to_obstacle, fol.lane_room)
-    return steer_walls(z, h, rows, v[rows], pref[rows], *args)
+    return law.steer_walls(z, h, rows, v[rows], pref[rows], *args)
 
 
 def near_walls(fol, z, rows, v, radius_m: float):
@@ -84,8 +84,8 @@ def near_walls(fol, z, rows, v, radius_m: float):
     if cache is None or len(cache[0]) != m:
         cache = fol.wall_seen_ = (np.zeros(m, dtype=complex), np.full(m, -np.inf))
     seen_z, seen_m = cache
-    reach = np.abs(v) * TAU_OBSTACLE_S + (radius_m + MARGIN_M + WALL_GAP_M)
-    reach = np.maximum(reach, radius_m + LANE_NEAR_M) + 1e-6
+    reach = np.abs(v) * law.TAU_OBSTACLE_S + (radius_m + law.MARGIN_M + law.WALL_GAP_M)
+    reach = np.maximum(reach, radius_m + law.LANE_NEAR_M) + 1e-6
     near = seen_m[rows] - np.abs(z[rows] - seen_z[rows]) < reach
     look = rows[near]
     if len(look):

@@ -14,15 +14,7 @@ from math import sqrt
 
 import numpy as np
 
-from sim.control.orca import (
-    MARGIN_M,
-    MAX_NEIGHBOURS,
-    TAU_S,
-    avoid,
-    orca_range_m,
-    pair_planes,
-    steer_rows,
-)
+from sim.control import orca  # its constants and functions read at call time: one set of knobs
 
 
 def half_plane_one(rel_p: complex, rel_v: complex, vel_i: complex, share: float, combined_m, tau):
@@ -87,7 +79,7 @@ def avoid_small(
         as :func:`avoid`.
     """
     m = len(z)
-    k = min(MAX_NEIGHBOURS, m - 1)
+    k = min(orca.MAX_NEIGHBOURS, m - 1)
     if k < 1 or not len(rows):
         return None
     found = binding(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s)
@@ -96,7 +88,7 @@ def avoid_small(
         if not len(keep):
             return None
         args = (z, vel, h, rows[keep], pref[keep], v_want[keep], steering, radius_m, v_max)
-        return avoid(*args, dt_s, to_obstacle, lanes)
+        return orca.avoid(*args, dt_s, to_obstacle, lanes)
     if not found:
         return None
     idx = np.zeros((len(found), k), dtype=np.intp)
@@ -105,9 +97,9 @@ def avoid_small(
         idx[b, : len(near)] = near
         mask[b, : len(near)] = True
     place = np.array([row for row, _ in found])
-    normal, offset = pair_planes(z, vel, rows[place], idx, mask, steering, radius_m, dt_s)
+    normal, offset = orca.pair_planes(z, vel, rows[place], idx, mask, steering, radius_m, dt_s)
     args = (normal, offset, pref[place], radius_m, v_max, to_obstacle, lanes)
-    return steer_rows(z, h, rows[place], *args)
+    return orca.steer_rows(z, h, rows[place], *args)
 
 
 def binding(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):
@@ -116,13 +108,13 @@ def binding(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt
     its place in ``rows`` and those neighbours, nearest first; None where rounding could decide
     (distances within 1e-12 of each other or of the range, a plan within 1e-10 of 1e-9)."""
     m = len(z)
-    k_max = min(MAX_NEIGHBOURS, m - 1)
-    reach = orca_range_m(radius_m, v_max)
+    k_max = min(orca.MAX_NEIGHBOURS, m - 1)
+    reach = orca.orca_range_m(radius_m, v_max)
     edge = reach * 1e-12
     zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
     steer, want = steering.tolist(), v_want.tolist()
-    combined = 2.0 * (radius_m + MARGIN_M)
-    tau = (1.0 / TAU_S, 1.0 / dt_s)
+    combined = 2.0 * (radius_m + orca.MARGIN_M)
+    tau = (1.0 / orca.TAU_S, 1.0 / dt_s)
     found = []
     for row, j in enumerate(rows.tolist()):
         zj, vj = zs[j], vs[j]
@@ -161,11 +153,11 @@ def may_bind(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, d
     m = len(z)
     if m < 2 or not len(rows):
         return []
-    reach = orca_range_m(radius_m, v_max) * (1.0 + 1e-9)
+    reach = orca.orca_range_m(radius_m, v_max) * (1.0 + 1e-9)
     zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
     steer, want = steering.tolist(), v_want.tolist()
-    combined = 2.0 * (radius_m + MARGIN_M)
-    tau = (1.0 / TAU_S, 1.0 / dt_s)
+    combined = 2.0 * (radius_m + orca.MARGIN_M)
+    tau = (1.0 / orca.TAU_S, 1.0 / dt_s)
     keep = []
     for row, j in enumerate(rows.tolist()):
         zj, vj = zs[j], vs[j]

@@ -274,3 +274,30 @@ def test_the_bench_times_avoidance_inside_the_loop():
     # the jam rule's re-plan, as the rule builds it and afresh, in the same run
     assert 0.0 < on["replan_ms"] and 0.0 < on["replan_fresh_ms"]
     assert "replan_ms" not in off
+
+
+def test_the_small_team_path_reads_the_law_s_knobs_where_the_law_does(monkeypatch):
+    """``sim.control.orca``'s constants are the knobs the README's variants edit (one edit plus
+    a repo command). The small-team path must read them where the law does: with fewer
+    neighbours, a shorter horizon and a wider margin, ``avoid_small`` still gives ``avoid``'s
+    commands bit for bit, and those differ from the defaults' on some scenes (once the small
+    path kept its own copy of ``MAX_NEIGHBOURS``, and a knob edited in ``orca`` changed only
+    half the law)."""
+    rng = np.random.default_rng(29)
+    scenes = [scene(rng, 10) for _ in range(120)]
+
+    def run_all():
+        out = []
+        for z, vel, h, rows, pref, v_want, steering, lanes in scenes:
+            args = (z, vel, h, rows, pref, v_want, steering, 0.25, 1.0, 0.1, to_obstacle, lanes)
+            law = orca.avoid(*args)
+            assert same(orca_small.avoid_small(*args), law)
+            out.append(law)
+        return out
+
+    default = run_all()
+    monkeypatch.setattr(orca, "MAX_NEIGHBOURS", 3)
+    monkeypatch.setattr(orca, "TAU_S", 1.0)
+    monkeypatch.setattr(orca, "MARGIN_M", 0.08)
+    edited = run_all()
+    assert sum(not same(a, b) for a, b in zip(edited, default, strict=True)) > 10

@@ -17,7 +17,7 @@ import numpy as np
 
 from sim.drive import DiffDriveController
 from sim.fleet import Clock, FleetState, Schedule, refresh_schedule
-from sim.jams import Jams
+from sim.jams import LANE_GAP_M, Jams
 from sim.paths import PathFollower
 from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
@@ -390,10 +390,7 @@ class Jobs:
 
     def ask_idle(self, j: int, t: float) -> bool:
         """Collision avoidance on, robot j stuck: the nearest idle robot within ``NEAR_M`` (not
-        stepping aside already, not broken) steps ``YIELD_STEP_M`` aside of j's heading (the side
-        away from j first, then the other, then straight on; a free end point half a step clear
-        of the other robots, reached by a planned path at most two steps long, so a robot that
-        stands closer to a wall than the planner's free space can step off it too), and j waits
+        stepping aside already, not broken) steps off j's way (:meth:`step_off`), and j waits
         one stuck timeout for it, spending a try. The speed caps ask only an idle robot straight
         ahead (:meth:`make_way`); ORCA stops a robot for one beside it too: an idle robot
         against the shelf at the mouth of a single-lane gap, off to one side, held a robot in
@@ -409,29 +406,57 @@ class Jobs:
         k = int(dist.argmin())
         if not dist[k] < NEAR_M:
             return False
-        travel = np.exp(1j * self.bodies[j].angle)
+        path = self.step_off(k, j, z)
+        if not len(path):
+            return False
+        self.follower.set_paths([k], [path])
+        f.yielding[k], f.yield_until_s[k] = True, t + YIELD_TIMEOUT_S
+        f.recoveries[j] += 1
+        f.t_progress_s[j] = t
+        self.refresh()
+        return True
+
+    def step_off(self, k: int, j: int, z: np.ndarray) -> np.ndarray:
+        """A short path (collision avoidance on) that takes idle robot k off the way of robot j:
+        ``YIELD_STEP_M``, else twice that, to the side of j's way away from j, the other side or
+        straight on along it (j's next path segment; its heading without a path), to the first
+        end point that is free, half a step clear of the other robots, at least two radii and
+        ``LANE_GAP_M`` off the rest of j's path, and reached by a planned path at most twice the
+        step long that keeps two radii from j (a robot closer to a wall than the planner's free
+        space can step off it too). A step along j's way, or into a gap j's path runs through,
+        only moved the jam: in the warehouse (market, seed 6) an idle robot ahead of a driving
+        one was stepped into the 1 m cross-aisle gap that the driving robot's way ran through,
+        which then stood at the gap's mouth until its task failed. (0, 2) if no step will do."""
+        r = self.controller.radius_m
+        fol = self.follower
+        ahead = fol.points[j, fol.index[j] : fol.last[j] + 1] if fol.last[j] >= 0 else z[j:j]
+        way = np.concatenate([[z[j]], ahead])
+        travel = next((d / abs(d) for d in ahead - z[j] if abs(d) > 1e-6), None)
+        if travel is None:
+            travel = np.exp(1j * self.bodies[j].angle)
         lateral = 1j * travel
         side = 1.0 if ((z[k] - z[j]) * lateral.conj()).real >= 0.0 else -1.0
-        close = np.abs(z - z[k]) < 2.0 * YIELD_STEP_M
+        close = np.abs(z - z[k]) < 3.0 * YIELD_STEP_M
         close[k] = False
-        for way in (side * lateral, -side * lateral, travel):
-            end = z[k] + YIELD_STEP_M * way
-            if not self.planner.free_one(end.real, end.imag):
-                continue
-            if close.any() and np.abs(z[close] - end).min() < 0.5 * YIELD_STEP_M:
-                continue
-            path = self.planner.path((z[k].real, z[k].imag), (end.real, end.imag))
-            if (
-                len(path)
-                and np.linalg.norm(np.diff(path, axis=0), axis=1).sum() <= 2.0 * YIELD_STEP_M
-            ):
-                self.follower.set_paths([k], [path])
-                f.yielding[k], f.yield_until_s[k] = True, t + YIELD_TIMEOUT_S
-                f.recoveries[j] += 1
-                f.t_progress_s[j] = t
-                self.refresh()
-                return True
-        return False
+        for step in (YIELD_STEP_M, 2.0 * YIELD_STEP_M):
+            for toward in (side * lateral, -side * lateral, travel):
+                end = z[k] + step * toward
+                if not self.planner.free_one(end.real, end.imag):
+                    continue
+                if close.any() and np.abs(z[close] - end).min() < 0.5 * YIELD_STEP_M:
+                    continue
+                if _to_polyline(np.array([end]), way)[0] < 2.0 * r + LANE_GAP_M:
+                    continue
+                path = self.planner.path((z[k].real, z[k].imag), (end.real, end.imag))
+                if not len(path):
+                    continue
+                pts = path @ np.array([1.0, 1j])
+                if np.abs(np.diff(pts)).sum() > 2.0 * step:
+                    continue
+                if _to_polyline(np.array([z[j]]), pts)[0] < 2.0 * r:
+                    continue
+                return path
+        return np.zeros((0, 2))
 
     def recovered(self, rows: list[int]) -> None:
         """Robots ``rows`` came ``RECOVERED_M`` closer to their site than where they last got
@@ -461,7 +486,9 @@ class Jobs:
         self.refresh()
 
     def make_way(self, pushers, blocker, z, h, v, t: float) -> None:
-        """Idle robots standing in a driving robot's way step aside (planning ignores robots).
+        """Idle robots standing in a driving robot's way step aside (planning ignores robots):
+        with collision avoidance on, off its way (:meth:`step_off`); without, sideways of its
+        heading (``GridPlanner.side_step``).
 
         Args:
             pushers: driving robots that asked; blocker: (m,) the robot in each one's way;
@@ -473,12 +500,15 @@ class Jobs:
             b = int(blocker[j])
             if f.yielding[b] or self.broken[b]:  # asked in this period, or cannot move
                 continue
-            travel = h[j] if v[j] >= 0 else -h[j]
-            # the side step's end point must keep YIELD_STEP_M / 2 from the other robots: only
-            # those within 1.5 YIELD_STEP_M of b could be that close (2 for rounding)
-            close = np.abs(z - z[b]) < 2.0 * YIELD_STEP_M
-            close[b] = False
-            path = self.planner.side_step(z[b], z[j], travel, YIELD_STEP_M, z[close])
+            if self.clear_sites:  # collision avoidance on: off the driving robot's way
+                path = self.step_off(b, j, z)
+            else:
+                travel = h[j] if v[j] >= 0 else -h[j]
+                # the side step's end point must keep YIELD_STEP_M / 2 from the other robots:
+                # only those within 1.5 YIELD_STEP_M of b could be that close (2 for rounding)
+                close = np.abs(z - z[b]) < 2.0 * YIELD_STEP_M
+                close[b] = False
+                path = self.planner.side_step(z[b], z[j], travel, YIELD_STEP_M, z[close])
             if len(path):
                 rows.append(b)
                 paths.append(path)
@@ -513,3 +543,13 @@ class Jobs:
 
 def _xy(p) -> str:
     return f"({float(p[0]):.2f}, {float(p[1]):.2f})"
+
+
+def _to_polyline(p: np.ndarray, way: np.ndarray) -> np.ndarray:
+    """(len(p),) distance of each point ``p`` (x + iy) to the polyline ``way``, m."""
+    if len(way) < 2:
+        return np.abs(p - way[0]) if len(way) else np.full(len(p), np.inf)
+    a, d = way[:-1], np.diff(way)
+    u = ((p[:, None] - a[None, :]) * d.conj()[None, :]).real
+    u = np.clip(u / np.maximum((d * d.conj()).real, 1e-18)[None, :], 0.0, 1.0)
+    return np.abs(p[:, None] - (a[None, :] + u * d[None, :])).min(axis=1)

@@ -548,7 +548,9 @@ def test_idle_robot_steps_aside_of_the_driving_robot_that_asked():
 
 
 def test_side_step_avoids_robots_near_its_end_and_goes_ahead_along_the_travel():
-    w = make_world([(5.0, 5.0), (6.0, 5.0), (6.0, 6.0), (6.0, 4.0), (5.0, 2.0)])
+    """Without collision avoidance an idle robot steps sideways of the asking robot's heading
+    (``GridPlanner.side_step``); with it, off its way (``Jobs.step_off``, test_orca.py)."""
+    w = make_world([(5.0, 5.0), (6.0, 5.0), (6.0, 6.0), (6.0, 4.0), (5.0, 2.0)], avoidance="none")
     f = w.fleet
     give(w, [0, 4], [(12.0, 5.0), (12.0, 2.0)])
     z = np.array([5 + 5j, 6 + 5j, 6 + 6j, 6 + 4j, 5 + 2j])  # 2, 3 stand where 1 would step
@@ -564,7 +566,7 @@ def test_side_step_avoids_robots_near_its_end_and_goes_ahead_along_the_travel():
 
 def test_robot_with_no_free_side_step_stays_and_one_asked_twice_moves_once():
     starts = [(5.0, 5.0), (6.0, 5.0), (6.0, 6.0), (6.0, 4.0), (7.0, 5.0), (7.0, 3.0), (14.0, 8.0)]
-    w = make_world([*starts, (15.0, 8.0)])
+    w = make_world([*starts, (15.0, 8.0)], avoidance="none")  # the sideways step
     f = w.fleet
     give(w, [0, 5, 6], [(12.0, 5.0), (12.0, 3.0), (18.0, 8.0)])
     z = np.array([5 + 5j, 6 + 5j, 6 + 6j, 6 + 4j, 7 + 5j, 7 + 3j, 14 + 8j, 15 + 8j])

@@ -474,6 +474,60 @@ def test_an_idle_robot_against_the_wall_at_a_gap_mouth_steps_aside_for_a_stuck_r
     assert abs(world.fleet.last_z_m[1] - complex(*idle)) > 0.5  # robot 1 moved
 
 
+@pytest.mark.parametrize("control", ["scalar", "array"])
+def test_an_idle_robot_asked_aside_steps_off_the_driving_robot_s_way_not_into_its_gap(control):
+    """Robot 0 drives west above a wall, its path turning south through a 1 m gap; robot 1
+    stands idle at the gap's mouth, on that path. Asked aside (the speed caps' ``make_way``),
+    it steps off robot 0's way (``Jobs.step_off``: at least two radii and 10 cm off the rest of
+    its path) and not, as a step sideways of robot 0's heading did, 1 m south into the gap
+    (then robot 0 pushed it through the gap ahead of itself: 18.0 s instead of 8.5 s; in the
+    warehouse, market, seed 6, a robot stood at such a gap's mouth until its task failed)."""
+    from sim.jobs import _to_polyline
+    from sim.physics import PymunkWorld
+    from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+    from sim.tasks import Batch
+
+    walls = (
+        ((0.0, 4.0), (5.5, 4.0), (5.5, 5.0), (0.0, 5.0)),
+        ((6.5, 4.0), (12.0, 4.0), (12.0, 5.0), (6.5, 5.0)),
+    )
+    goal, idle = (6.0, 1.0), (6.0, 5.6)
+    sp = SpatialSpec(
+        12.0,
+        9.0,
+        walls,
+        ((goal,), (idle,)),
+        DriveSpec(max_wheel_speed_radps=18.75),
+        arrive_tol_m=0.1,
+        stuck_timeout_s=6.0,
+    )
+    robots = (RobotSpec("A", (0,), (8.5, 5.9), 180.0), RobotSpec("B", (1,), idle, 180.0))
+    sc = Scenario("gap", ("T0", "T1"), robots, ((1.0, 1.0),) * 2, (1000.0,) * 2, spatial=sp)
+    world = PymunkWorld(sc, control=control)
+    world.reset(np.random.default_rng(0))
+    one = Batch(0, 0, np.arange(1), np.zeros(1, int), np.zeros(1, bool), np.array([goal]))
+    world.apply(one, np.array([0]), np.ones(1))
+    z, fol = world.fleet.last_z_m, world.jobs.follower
+    way = np.concatenate([z[:1], fol.points[0, fol.index[0] : fol.last[0] + 1]])
+    step = world.jobs.step_off(1, 0, z) @ np.array([1.0, 1j])
+    assert _to_polyline(step[-1:], way)[0] >= 0.6 and step[-1].imag > 5.35  # not in the gap
+    sideways = world.jobs.planner.side_step(z[1], z[0], np.complex128(-1.0), 1.0, z[:1])
+    assert np.allclose(sideways[-1], [6.0, 4.6])  # what a step sideways of the heading did
+    t = time_to_all_arrive(world, 60.0)
+    assert t <= 12.0
+    assert world.jobs.failures == 0
+    assert world.contacts.robot_hits == world.contacts.wall_hits == 0
+
+
+def test_distance_to_a_polyline():
+    from sim.jobs import _to_polyline
+
+    way = np.array([0.0, 4.0, 4.0 + 3.0j])
+    got = _to_polyline(np.array([2.0 + 1.0j, 5.0 + 1.0j, -3.0 + 4.0j, 4.0 + 5.0j]), way)
+    assert np.allclose(got, [1.0, 1.0, 5.0, 2.0])
+    assert np.allclose(_to_polyline(np.array([3.0 + 4.0j]), np.array([0.0])), [5.0])
+
+
 def test_the_wall_screen_drops_only_robots_whose_lines_cannot_bind():
     """``near_walls`` passes over robots far from every obstacle, using the distance it last
     measured less the way the robot moved since. Over 40 periods of 300 robots wandering among

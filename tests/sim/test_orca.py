@@ -433,6 +433,39 @@ def test_a_jam_in_a_single_lane_gap_is_broken_by_the_robot_whose_way_back_is_fre
     assert world.contacts.robot_hits == world.contacts.wall_hits == 0
 
 
+def gap_world(start, goal, idle, heading_deg: float, control: str):
+    """The warehouse's cross aisle: a 1 m gap (x 5.5-6.5 m) in a 1 m thick wall (y 4-5 m) in a
+    12 x 9 m arena, warehouse robots; robot 0 at ``start`` sent to ``goal``, robot 1 idle at
+    ``idle``, both facing ``heading_deg``; stuck timeout 6 s."""
+    from sim.physics import PymunkWorld
+    from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+    from sim.tasks import Batch
+
+    walls = (
+        ((0.0, 4.0), (5.5, 4.0), (5.5, 5.0), (0.0, 5.0)),
+        ((6.5, 4.0), (12.0, 4.0), (12.0, 5.0), (6.5, 5.0)),
+    )
+    sp = SpatialSpec(
+        12.0,
+        9.0,
+        walls,
+        ((goal,), (idle,)),
+        DriveSpec(max_wheel_speed_radps=18.75),
+        arrive_tol_m=0.1,
+        stuck_timeout_s=6.0,
+    )
+    robots = (
+        RobotSpec("A", (0,), start, heading_deg),
+        RobotSpec("B", (1,), idle, heading_deg),
+    )
+    sc = Scenario("gap", ("T0", "T1"), robots, ((1.0, 1.0),) * 2, (1000.0,) * 2, spatial=sp)
+    world = PymunkWorld(sc, control=control)
+    world.reset(np.random.default_rng(0))
+    one = Batch(0, 0, np.arange(1), np.zeros(1, int), np.zeros(1, bool), np.array([goal]))
+    world.apply(one, np.array([0]), np.ones(1))
+    return world
+
+
 @pytest.mark.parametrize("control", ["scalar", "array"])
 def test_an_idle_robot_against_the_wall_at_a_gap_mouth_steps_aside_for_a_stuck_robot(control):
     """The warehouse's cross aisle again (a 1 m gap in a 1 m thick wall): robot 0 drives north
@@ -443,32 +476,10 @@ def test_an_idle_robot_against_the_wall_at_a_gap_mouth_steps_aside_for_a_stuck_r
     no failure, no contact. Without the rule robot 0 pressed on the idle robot until its task
     failed (47 s, a robot and a wall contact; QL-MRTA, warehouse seed 4, with 10 neighbours
     per program)."""
-    from sim.physics import PymunkWorld
-    from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
-    from sim.tasks import Batch
-
-    walls = (
-        ((0.0, 4.0), (5.5, 4.0), (5.5, 5.0), (0.0, 5.0)),
-        ((6.5, 4.0), (12.0, 4.0), (12.0, 5.0), (6.5, 5.0)),
-    )
-    goal, idle = (6.0, 8.0), (5.82, 5.26)
-    sp = SpatialSpec(
-        12.0,
-        9.0,
-        walls,
-        ((goal,), (idle,)),
-        DriveSpec(max_wheel_speed_radps=18.75),
-        arrive_tol_m=0.1,
-        stuck_timeout_s=6.0,
-    )
-    robots = (RobotSpec("A", (0,), (6.2, 2.0), 90.0), RobotSpec("B", (1,), idle, 90.0))
-    sc = Scenario("gap", ("T0", "T1"), robots, ((1.0, 1.0),) * 2, (1000.0,) * 2, spatial=sp)
-    world = PymunkWorld(sc, control=control)
-    world.reset(np.random.default_rng(0))
-    one = Batch(0, 0, np.arange(1), np.zeros(1, int), np.zeros(1, bool), np.array([goal]))
-    world.apply(one, np.array([0]), np.ones(1))
+    idle = (5.82, 5.26)
+    world = gap_world((6.2, 2.0), (6.0, 8.0), idle, 90.0, control)
     t = time_to_all_arrive(world, 120.0)
-    assert t <= 2 * sp.stuck_timeout_s + 15.0
+    assert t <= 2 * world.spatial.stuck_timeout_s + 15.0
     assert world.jobs.failures == 0
     assert world.contacts.robot_hits == world.contacts.wall_hits == 0
     assert abs(world.fleet.last_z_m[1] - complex(*idle)) > 0.5  # robot 1 moved
@@ -483,30 +494,8 @@ def test_an_idle_robot_asked_aside_steps_off_the_driving_robot_s_way_not_into_it
     (then robot 0 pushed it through the gap ahead of itself: 18.0 s instead of 8.5 s; in the
     warehouse, market, seed 6, a robot stood at such a gap's mouth until its task failed)."""
     from sim.jobs import _to_polyline
-    from sim.physics import PymunkWorld
-    from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
-    from sim.tasks import Batch
 
-    walls = (
-        ((0.0, 4.0), (5.5, 4.0), (5.5, 5.0), (0.0, 5.0)),
-        ((6.5, 4.0), (12.0, 4.0), (12.0, 5.0), (6.5, 5.0)),
-    )
-    goal, idle = (6.0, 1.0), (6.0, 5.6)
-    sp = SpatialSpec(
-        12.0,
-        9.0,
-        walls,
-        ((goal,), (idle,)),
-        DriveSpec(max_wheel_speed_radps=18.75),
-        arrive_tol_m=0.1,
-        stuck_timeout_s=6.0,
-    )
-    robots = (RobotSpec("A", (0,), (8.5, 5.9), 180.0), RobotSpec("B", (1,), idle, 180.0))
-    sc = Scenario("gap", ("T0", "T1"), robots, ((1.0, 1.0),) * 2, (1000.0,) * 2, spatial=sp)
-    world = PymunkWorld(sc, control=control)
-    world.reset(np.random.default_rng(0))
-    one = Batch(0, 0, np.arange(1), np.zeros(1, int), np.zeros(1, bool), np.array([goal]))
-    world.apply(one, np.array([0]), np.ones(1))
+    world = gap_world((8.5, 5.9), (6.0, 1.0), (6.0, 5.6), 180.0, control)
     z, fol = world.fleet.last_z_m, world.jobs.follower
     way = np.concatenate([z[:1], fol.points[0, fol.index[0] : fol.last[0] + 1]])
     step = world.jobs.step_off(1, 0, z) @ np.array([1.0, 1j])

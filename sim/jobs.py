@@ -426,7 +426,8 @@ class Jobs:
         space can step off it too). A step along j's way, or into a gap j's path runs through,
         only moved the jam: in the warehouse (market, seed 6) an idle robot ahead of a driving
         one was stepped into the 1 m cross-aisle gap that the driving robot's way ran through,
-        which then stood at the gap's mouth until its task failed. (0, 2) if no step will do."""
+        and the driving robot stood at the gap's mouth until its task failed. (0, 2) if no step
+        will do."""
         r = self.controller.radius_m
         fol = self.follower
         ahead = fol.points[j, fol.index[j] : fol.last[j] + 1] if fol.last[j] >= 0 else z[j:j]

@@ -370,12 +370,12 @@ def cmd_hardcase(args) -> int:
     if args.jitter > 0.0:
         s = hardcase_summary(runs)
         arrived = s["n_runs"] - s["runs_not_arrived"]
+        times = f" (mean {s['time_mean_s']:.1f} s, max {s['time_max_s']:.1f} s)" if arrived else ""
         print(
             f"{s['n_runs']} runs: {s['runs_with_robot_contact']} with a robot-robot contact "
             f"({s['robot_touch']} touch, {s['robot_impact']} impact), "
             f"{s['runs_with_wall_contact']} with a robot-wall contact; all arrived in "
-            f"{arrived} (mean {s['time_mean_s']:.1f} s, max {s['time_max_s']:.1f} s); closest "
-            f"centres {s['closest_m']:.2f} m; failed tasks {s['failed']}"
+            f"{arrived}{times}; closest centres {s['closest_m']:.2f} m; failed tasks {s['failed']}"
         )
     return 0
 
@@ -400,10 +400,8 @@ def hardcase_line(case: str, r: dict, limit_s: float) -> str:
 def hardcase_summary(runs: list[dict]) -> dict:
     """Counts over runs of one hard case: the runs, those with a robot-robot or robot-wall
     contact, the contacts of each kind, runs in which not every robot arrived, the mean and
-    largest time of those that did (nan if none), the closest two centres came and the failed
-    tasks."""
-    import math
-
+    largest time of those that did (None if none did: the --json output stays strict JSON), the
+    closest two centres came and the failed tasks."""
     times = [r["time_s"] for r in runs if r["time_s"] != float("inf")]
     return {
         "n_runs": len(runs),
@@ -412,8 +410,8 @@ def hardcase_summary(runs: list[dict]) -> dict:
         "robot_touch": sum(r["robot_touch"] for r in runs),
         "robot_impact": sum(r["robot_impact"] for r in runs),
         "runs_not_arrived": len(runs) - len(times),
-        "time_mean_s": sum(times) / len(times) if times else math.nan,
-        "time_max_s": max(times) if times else math.nan,
+        "time_mean_s": sum(times) / len(times) if times else None,
+        "time_max_s": max(times) if times else None,
         "closest_m": min(r["closest_m"] for r in runs),
         "failed": sum(r["failed"] for r in runs),
     }

@@ -147,3 +147,14 @@ def test_cli_jitter_runs_seeds_one_to_n_and_the_summary_counts_them(capsys):
     lines = capsys.readouterr().out.strip().splitlines()
     assert len(lines) == 3 and lines[0].startswith("seed 1, starts moved by N(0, 0.02 m)")
     assert lines[-1].startswith("2 runs: ")
+
+
+def test_cli_jitter_when_no_run_arrives_is_strict_json_and_says_so(capsys):
+    args = ["hardcase", "corridor", "--limit-s", "3", "--jitter", "1e-4", "--seeds", "2"]
+    assert main([*args, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(c))
+    assert doc["runs_not_arrived"] == 2 and doc["time_mean_s"] is None is doc["time_max_s"]
+    assert all(r["time_s"] is None for r in doc["runs"])
+    assert main([*args, "--no-progress"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "all arrived in 0;" in last and "mean" not in last

@@ -381,55 +381,16 @@ def wall_lines(z, rows, radius_m, to_obstacle, lanes=None, ob=None):
     return normal, offset
 
 
-def command(normal, offset, pref, hi, v_max, slack=0.0, lanes=0):
+def command(normal, offset, pref, hi, v_max, slack=0.0):
     """(v, omega) of robots with headings ``hi`` under the half-planes ``normal``, ``offset``:
     the velocity u nearest ``pref`` (:func:`solve`), the turn toward it and the forward speed
-    along the heading that keeps every half-plane, less ``slack`` (:func:`forward_speed`).
-    ``lanes``: the last that many columns are lane lines, which give way where the others
-    cannot all be kept with them (:func:`drop_lanes`)."""
+    along the heading that keeps every half-plane, less ``slack`` (:func:`forward_speed`)."""
     u = solve(normal, offset, pref, v_max)
-    dropped = None
-    if lanes:
-        u, offset, dropped = drop_lanes(normal, offset, pref, u, v_max, lanes)
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
     v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max, slack)
-    if dropped is not None:  # no forward speed keeps their lines: they turn where they stand
-        d = dropped
-        miss = offset[d] - ((v[d] * hi[d])[:, None] * normal[d].conj()).real
-        v[d] = np.where(miss.max(axis=1) > np.max(slack) + 1e-9, 0.0, v[d])
     return v, err * HEADING_GAIN
-
-
-def drop_lanes(normal, offset, pref, u, v_max: float, lanes: int):
-    """Lane lines give way to robots and walls: for the rows whose velocity ``u`` (from
-    :func:`solve` over every line) keeps not every line, the program without the last ``lanes``
-    columns (the two lane lines of :func:`wall_lines`) is solved; where that one is feasible,
-    its velocity is the row's and its lane lines are dropped (offset -inf) for the forward
-    speed too; where no forward speed along its heading keeps the lines left, it turns in
-    place toward that velocity (:func:`command`). A lane line keeps a robot inside its path's
-    free width; it is not an obstacle.
-    Two robots wedged side by side at the mouth of a single lane, each a little outside its
-    lane and inside the other's margin, had one line telling each to move apart and the other
-    to move back in toward the other: the least violation of all lines was a standstill, for
-    good (warehouse, ExpT-MRTA, seed 5: a task failed). Returns ``(u, offset, rows)``: new
-    arrays where a row changed, and the rows that dropped their lane lines (None if none)."""
-    broken = (offset - (u[:, None] * normal.conj()).real).max(axis=1) > 1e-9
-    broken &= (offset[:, -lanes:] > -_BIG / 2).any(axis=1)  # a lane line is in the program
-    rows = broken.nonzero()[0]
-    if not len(rows):
-        return u, offset, None
-    n, c = normal[rows, :-lanes], offset[rows, :-lanes]
-    got = solve(n, c, pref[rows], v_max)
-    ok = (c - (got[:, None] * n.conj()).real).max(axis=1) <= 1e-9
-    ok &= np.abs(got) <= v_max * (1.0 + 1e-9)
-    if not ok.any():
-        return u, offset, None
-    u, offset = u.copy(), offset.copy()
-    u[rows[ok]] = got[ok]
-    offset[rows[ok], -lanes:] = -_BIG
-    return u, offset, rows[ok]
 
 
 def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, lanes=None):
@@ -444,7 +405,7 @@ def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, l
     normal = np.concatenate([normal, on], axis=1)
     offset = np.concatenate([offset, oc], axis=1)
     bias = np.where(np.abs(ob) - radius_m > BIAS_ROOM_M, KEEP_RIGHT, 1.0)
-    v, w = command(normal, offset, pref * bias, h[rows], v_max, slack, on.shape[1] - 1)
+    v, w = command(normal, offset, pref * bias, h[rows], v_max, slack)
     return rows, v, w
 
 
@@ -474,6 +435,5 @@ def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=No
     if not bind.any():
         return None
     hi, cap = h[rows[bind]], np.abs(v_plan[bind])
-    lane_cols = normal.shape[1] - 1
-    v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max, WALL_SLACK_MPS, lane_cols)
+    v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max, WALL_SLACK_MPS)
     return rows[bind], np.minimum(np.maximum(v, 0.0), cap), w

@@ -287,56 +287,6 @@ def test_in_a_narrow_lane_orca_keeps_the_velocity_inside_the_free_width(monkeypa
     assert wide == free
 
 
-def test_two_robots_wedged_at_a_lane_mouth_turn_apart_instead_of_freezing(monkeypatch):
-    """The state read off the warehouse (ExpT-MRTA, seed 5, t = 3745 s): two robots side by
-    side at the north mouth of a 1 m gap between shelves, each a little outside its path's
-    single-lane free width and inside the other's ORCA margin (centres 0.57 m apart), both
-    bound south through the gap. Each program had a robot line telling it to move apart and a
-    lane line telling it to move back in, toward the other: the least violation of all lines
-    was a standstill (0, 0), held for 25 s until a task failed. Lane lines give way
-    (``drop_lanes``): each takes the velocity nearest its preferred one that keeps its robot
-    and wall lines, moving apart, and turns toward it in place (no forward speed along its
-    heading keeps them)."""
-    from sim.control import orca
-
-    shelves = ((3.0, 10.0, 9.5, 11.0), (10.5, 10.0, 17.0, 11.0))
-
-    def to_obstacle(pts):
-        best = np.full(len(pts), complex(np.inf, 0.0))
-        for x0, y0, x1, y1 in shelves:
-            near = np.clip(pts.real, x0, x1) + 1j * np.clip(pts.imag, y0, y1) - pts
-            best = np.where(np.abs(near) < np.abs(best), near, best)
-        return best
-
-    rooms = {0: (0.458, -0.062), 1: (-0.045, 0.546)}  # (left, right) of the lane, m
-
-    def lanes(pts, idx):  # both paths run south (left is +x)
-        left, right = zip(*(rooms[int(i)] for i in idx), strict=True)
-        return np.full(len(pts), 1.0 + 0j), np.array(left), np.array(right)
-
-    z = np.array([9.731 + 11.172j, 10.295 + 11.143j])
-    h = np.exp(1j * np.radians([52.0, -88.0]))
-    pref = np.array([0.149 - 1.493j, -0.145 - 1.493j])
-    args = (z, np.zeros(2, complex), h, np.arange(2), pref, np.array([0.0, 1.474]))
-    args += (np.ones(2, bool), 0.25, 1.0, 0.1, to_obstacle)
-    chosen = []
-    inner = orca.drop_lanes
-    monkeypatch.setattr(orca, "drop_lanes", lambda *a: chosen.append(inner(*a)) or chosen[-1])
-    rows, v, w = orca.avoid(*args, lanes)
-    assert rows.tolist() == [0, 1]
-    u, _, dropped = chosen[-1]
-    assert dropped.tolist() == [0, 1]  # both programs were infeasible with their lane lines
-    apart = (u[1] - u[0]) * np.conj(z[1] - z[0]) / abs(z[1] - z[0])
-    assert apart.real > 0.3  # they move apart (each at 0.15 m/s or more along the line)
-    ob = to_obstacle(z)
-    assert ((u * np.conj(ob)).real < 0.0).all()  # ... and away from the shelf corners
-    assert v.tolist() == [0.0, 0.0]  # turning in place first: no forward speed closes in
-    assert (w > 1.0).all()  # both turn left, robot 0 toward north-west, robot 1 north-east
-    monkeypatch.setattr(orca, "drop_lanes", lambda n, c, p, u, vm, k: (u, c, None))
-    _, v_old, w_old = orca.avoid(*args, lanes)
-    assert v_old.tolist() == [0.0, 0.0] and np.abs(w_old).max() < 1e-9  # the freeze before
-
-
 def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it():
     """A robot 0.32 m from a wall (0.02 m beyond the line at ``radius + MARGIN_M``) heads 30
     degrees into it at 1 m/s: its line binds, the forward speed it gets keeps the driven

@@ -92,10 +92,7 @@ def avoid_reference(
     """``sim.control.orca.avoid`` of commit 5f5188e (then ``sim.orca.avoid``), before the
     staged solve: the oracle; its right-hand bias since taken only where the body has more
     than ``BIAS_ROOM_M`` of room to the nearest obstacle, and its forward program with the
-    slacks, as the law now does; its lane lines dropped, row by row, where the program with
-    them is infeasible and the one without them is not (``drop_lanes``; then a forward speed
-    that keeps not every line left is a stop). Arguments and result
-    as ``sim.control.orca.avoid``."""
+    slacks, as the law now does. Arguments and result as ``sim.control.orca.avoid``."""
     reach = orca_range_m(radius_m, v_max)
     table = neighbour_table(z, rows, reach)
     if table is None:
@@ -140,27 +137,11 @@ def avoid_reference(
         normal = np.concatenate([normal, lane_n], axis=1)
         offset = np.concatenate([offset, lane_c], axis=1)
     u = solve_reference(normal, offset, pref, v_max)
-    dropped = []
-    if lanes is not None:  # lane lines give way where the program with them is infeasible
-        for i in range(len(u)):
-            lane_on = (offset[i, -2:] > -_BIG / 2).any()
-            if not lane_on or (offset[i] - (u[i] * normal[i].conj()).real).max() <= 1e-9:
-                continue
-            n, c = normal[i : i + 1, :-2], offset[i : i + 1, :-2]
-            ui = solve_reference(n, c, pref[i : i + 1], v_max)[0]
-            if (c[0] - (ui * n[0].conj()).real).max() <= 1e-9 and abs(ui) <= v_max * (1 + 1e-9):
-                u[i] = ui
-                offset[i, -2:] = -_BIG
-                dropped.append(i)
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)
     align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
     slack = np.repeat([ROBOT_SLACK_MPS, WALL_SLACK_MPS], [k_robots, normal.shape[1] - k_robots])
     v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max, slack)
-    most = max(ROBOT_SLACK_MPS, WALL_SLACK_MPS)
-    for i in dropped:  # no forward speed keeps the lines left: it turns in place
-        if (offset[i] - (v[i] * hi[i] * normal[i].conj()).real).max() > most + 1e-9:
-            v[i] = 0.0
     return rows[bind], v, err * HEADING_GAIN
 
 

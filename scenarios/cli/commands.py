@@ -450,6 +450,7 @@ def cmd_soak(args) -> int:
 
 def cmd_sweep(args) -> int:
     """The ``mrta sweep`` command: run, then print where the outputs went."""
+    from scenarios.sweep.avoidance_report import avoidance_rows
     from scenarios.sweep.report import key_columns
     from scenarios.sweep.runner import run_sweep
     from scenarios.sweep.spec import load_sweep
@@ -464,10 +465,12 @@ def cmd_sweep(args) -> int:
         progress=not getattr(args, "no_progress", False),
     )
     groups = len({tuple(r[c] for c in key_columns(sweep) if c != "seed") for r in rows})
+    report = avoidance_rows(rows, sweep.parameters)
     print(
         f"sweep {sweep.name}: {len(rows)} runs ({groups} combinations x {len(sweep.seeds)} seeds); "
-        f"wrote {out}/runs.csv, summary.csv, summary.json and "
-        f"{len(sweep.parameters)} sensitivity plot(s)"
+        f"wrote {out}/runs.csv, summary.csv, summary.json"
+        + (", avoidance.md, avoidance.json" if report else "")
+        + f" and {len(sweep.parameters)} sensitivity plot(s)"
     )
     return 0
 

@@ -1,4 +1,5 @@
-"""Rows, resume and outputs of a sweep: runs.csv, summary.csv, summary.json, sensitivity plots.
+"""Rows, resume and outputs of a sweep: runs.csv, summary.csv, summary.json, sensitivity plots
+(and the avoidance report, :mod:`scenarios.sweep.avoidance_report`).
 
 runs.csv holds one row per run: the key columns (scenario, allocator, cost, seed, one column per
 swept parameter) and the metric columns below. Numbers are written as Python's shortest exact
@@ -18,6 +19,7 @@ from learning.episode import LOSS_CAUSES
 from scenarios.experiments.metrics import ci95
 from scenarios.experiments.output import write_json_atomic, write_rows_atomic
 from scenarios.experiments.protocol import UserError
+from scenarios.sweep.avoidance_report import write_avoidance_report
 from scenarios.sweep.columns import INT_COLUMNS, METRIC_COLUMNS, SPATIAL_CONTACTS
 from scenarios.sweep.spec import PARAMETERS
 
@@ -210,7 +212,9 @@ def summarize(sweep, records: list[dict]) -> list[dict]:
 
 
 def write_outputs(sweep, rows: list[list[str]], out: Path) -> list[dict]:
-    """summary.csv, summary.json and the sensitivity plots of finished runs (spec order)."""
+    """summary.csv, summary.json and the sensitivity plots of finished runs (spec order);
+    avoidance.md and avoidance.json too when the sweep varies ``spatial.avoidance`` against
+    ``"none"`` (:mod:`scenarios.sweep.avoidance_report`)."""
     records = [typed_row(r, sweep) for r in rows]
     summary = summarize(sweep, records)
     header = list(summary[0])
@@ -237,6 +241,7 @@ def write_outputs(sweep, rows: list[list[str]], out: Path) -> list[dict]:
     write_json_atomic(out / "summary.json", doc)
     for p in sweep.parameters:
         fig_sensitivity(sweep, records, p, out / f"sensitivity_{p}.png")
+    write_avoidance_report(records, sweep.parameters, out)
     return summary
 
 

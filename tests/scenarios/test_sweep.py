@@ -271,3 +271,29 @@ def test_cli_entry_points(abstract_file, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "30 runs (6 combinations x 5 seeds)" in out
     assert (tmp_path / "cli" / "runs.csv").read_text().count("\n") == 31
+
+
+def test_a_sweep_over_avoidance_writes_the_before_and_after_report(tmp_path, capsys):
+    """`mrta sweep` with spatial.avoidance none and orca in its grid writes avoidance.md and
+    avoidance.json (scenarios.sweep.avoidance_report) and says so; their rows are the runs'."""
+    from scenarios.cli.app import main
+
+    path = tmp_path / "avoid.toml"
+    path.write_text(
+        '[sweep]\nscenarios = ["paper_spatial"]\nallocators = ["market"]\n'
+        'costs = ["abstract"]\nseeds = 2\n'
+        '[fixed]\n"stream.n_sets" = 2\n"stream.rounds_per_set" = 3\n'
+        '"stream.learn_sets" = 1\n"stream.test_sets" = 1\n'
+        '[grid]\n"spatial.avoidance" = ["none", "orca"]\n'
+    )
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out), "--workers", "2", "--no-progress"]) == 0
+    assert "avoidance.md, avoidance.json" in capsys.readouterr().out
+    doc = json.loads((out / "avoidance.json").read_text())
+    (row,) = doc["rows"]
+    assert row["avoidance"] == "orca" and row["seeds"] == [0, 1]
+    with (out / "runs.csv").open() as fh:
+        runs = list(csv.DictReader(fh))
+    orca = [float(r["tasks_allocated"]) for r in runs if r["spatial.avoidance"] == "orca"]
+    assert row["after"]["tasks_allocated"] == pytest.approx(sum(orca) / 2)
+    assert "| paper_spatial | market | abstract | orca | 2 |" in (out / "avoidance.md").read_text()

@@ -469,7 +469,7 @@ def cmd_sweep(args) -> int:
     print(
         f"sweep {sweep.name}: {len(rows)} runs ({groups} combinations x {len(sweep.seeds)} seeds); "
         f"wrote {out}/runs.csv, summary.csv, summary.json"
-        + (", avoidance.md, avoidance.json" if report else "")
+        + (", avoidance.md, avoidance.json, avoidance.png" if report else "")
         + f" and {len(sweep.parameters)} sensitivity plot(s)"
     )
     return 0

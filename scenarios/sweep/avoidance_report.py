@@ -26,6 +26,8 @@ import math
 import statistics
 from pathlib import Path
 
+import numpy as np
+
 from scenarios.experiments.output import write_json_atomic
 
 PARAMETER = "spatial.avoidance"
@@ -182,9 +184,87 @@ def markdown(rows: list[dict], others=()) -> str:
     return "\n".join(lines)
 
 
+def _label(row: dict, rows: list[dict], others) -> str:
+    """A row's bar label: the allocator, and what else tells the rows apart."""
+    from scenarios.experiments.figures import ALLOCATOR_LABELS
+
+    label = ALLOCATOR_LABELS.get(row["allocator"], row["allocator"])
+    if len({r["cost"] for r in rows}) > 1:
+        label += f" / {row['cost']}"
+    if len({r["avoidance"] for r in rows}) > 1:
+        label += f" / {row['avoidance']}"
+    for p in others:
+        label += f"\n{p} = {row[p]}"
+    return label
+
+
+def fig_avoidance(rows: list[dict], others=(), path: Path | None = None):
+    """Per scenario (a row of panels): the change in tasks allocated and in time to arrival
+    against ``"none"`` per allocator (bars, in % of the ``none`` mean, with the standard error
+    of the per-seed change), and robot-robot and robot-wall contacts per robot-hour (bars: means
+    over seeds; dots: the largest seed's wall rate), each with its issue-15 target as a dashed
+    line. Each bar carries ``gid = "<panel>:<scenario>:<label>"``."""
+    from scenarios.experiments.figures import allocator_colour, new_figure, save_figure
+
+    scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
+    panels = (
+        ("tasks", "tasks allocated, change %", 100 * TARGETS["tasks"][1]),
+        ("arrival", "time to arrival, change %", 100 * TARGETS["arrival"][1]),
+        ("robot", "robot-robot contacts /robot-h", TARGETS["robot_contacts"][1]),
+        ("wall", "robot-wall contacts /robot-h", TARGETS["wall_contacts"][1]),
+    )
+    fig = new_figure(3.6 * len(panels), 3.2 * len(scenarios))
+    axes = np.atleast_2d(fig.subplots(len(scenarios), len(panels), squeeze=False))
+    for i, sc in enumerate(scenarios):
+        mine = [r for r in rows if r["scenario"] == sc]
+        labels = [_label(r, rows, others) for r in mine]
+        x = np.arange(len(mine))
+        colours = [allocator_colour(r["allocator"], k) for k, r in enumerate(mine)]
+        values = {
+            "tasks": (
+                [100 * r["tasks_change"] for r in mine],
+                [r["tasks_change_se"] for r in mine],
+            ),
+            "arrival": (
+                [100 * r["arrival_change"] for r in mine],
+                [r["arrival_change_se"] for r in mine],
+            ),
+            "robot": (
+                [
+                    r["after"]["robot_touch_per_robot_h"] + r["after"]["robot_impact_per_robot_h"]
+                    for r in mine
+                ],
+                [None] * len(mine),
+            ),
+            "wall": ([r["after"]["wall_per_robot_h"] for r in mine], [None] * len(mine)),
+        }
+        for ax, (key, title, target) in zip(axes[i], panels, strict=True):
+            mean, se = values[key]
+            for k in range(len(mine)):
+                ax.bar(
+                    x[k], mean[k], yerr=None if se[k] is None else 100 * se[k], capsize=3,
+                    color=colours[k], gid=f"{key}:{sc}:{labels[k]}",
+                )  # fmt: skip
+            if key == "wall":
+                ax.plot(x, [r["after"]["wall_per_robot_h_max_seed"] for r in mine], "k.",
+                        label="largest seed")  # fmt: skip
+                ax.legend(loc="best", fontsize="small")
+            ax.axhline(target, color="grey", linestyle="--", linewidth=1)
+            ax.axhline(0.0, color="black", linewidth=0.6)
+            ax.set_xticks(x, labels, fontsize="small")
+            ax.set_title(f"{sc}: {title}", fontsize="medium")
+    fig.suptitle(
+        "collision avoidance against none, paired by seed (bars: mean over seeds, "
+        "± standard error; dashed: issue 15's target)"
+    )
+    save_figure(fig, path)
+    return fig
+
+
 def write_avoidance_report(records: list[dict], parameters, out: Path) -> bool:
-    """``avoidance.md`` and ``avoidance.json`` in ``out`` if the sweep varies avoidance against
-    ``"none"`` (each written through a temporary file and a rename); True if written."""
+    """``avoidance.md``, ``avoidance.json`` and ``avoidance.png`` in ``out`` if the sweep varies
+    avoidance against ``"none"`` (the text files written through a temporary file and a
+    rename); True if written."""
     rows = avoidance_rows(records, parameters)
     if not rows:
         return False
@@ -194,4 +274,5 @@ def write_avoidance_report(records: list[dict], parameters, out: Path) -> bool:
     tmp = out / ".avoidance.md.tmp"
     tmp.write_text(markdown(rows, others) + "\n")
     tmp.replace(out / "avoidance.md")
+    fig_avoidance(rows, others, out / "avoidance.png")
     return True

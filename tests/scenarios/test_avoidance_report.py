@@ -6,7 +6,12 @@ import json
 
 import pytest
 
-from scenarios.sweep.avoidance_report import avoidance_rows, markdown, write_avoidance_report
+from scenarios.sweep.avoidance_report import (
+    avoidance_rows,
+    fig_avoidance,
+    markdown,
+    write_avoidance_report,
+)
 
 PARAMS = ("spatial.avoidance",)
 
@@ -99,7 +104,8 @@ def test_runs_without_spatial_metrics_are_left_out(records):
 
 def test_the_report_files_are_written_whole(records, tmp_path):
     assert write_avoidance_report(records, PARAMS, tmp_path)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["avoidance.json", "avoidance.md"]
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == ["avoidance.json", "avoidance.md", "avoidance.png"]
     doc = json.loads((tmp_path / "avoidance.json").read_text())
     assert doc["baseline"] == "none" and len(doc["rows"]) == 2
     assert (tmp_path / "avoidance.md").read_text().count("| warehouse |") == 2
@@ -117,3 +123,20 @@ def test_another_swept_parameter_gets_its_own_column_and_rows(records):
     ]
     header = markdown(rows, ["stream.p_high"]).splitlines()[3]
     assert header.startswith("| scenario | allocator | cost | stream.p_high | avoidance |")
+
+
+def test_the_figure_draws_each_row_against_its_target(records):
+    rows = {r["allocator"]: r for r in avoidance_rows(records, PARAMS)}
+    fig = fig_avoidance(list(rows.values()))
+    bars = {p.get_gid(): p.get_height() for ax in fig.axes for p in ax.patches}
+    m = rows["market"]
+    assert bars["tasks:warehouse:Market (MRTA)"] == pytest.approx(100 * m["tasks_change"])
+    assert bars["arrival:warehouse:Market (MRTA)"] == pytest.approx(100 * m["arrival_change"])
+    robot = m["after"]["robot_touch_per_robot_h"] + m["after"]["robot_impact_per_robot_h"]
+    assert bars["robot:warehouse:Market (MRTA)"] == pytest.approx(robot)
+    assert bars["wall:warehouse:Market (MRTA)"] == pytest.approx(m["after"]["wall_per_robot_h"])
+    assert bars["tasks:warehouse:QL-MRTA"] == 0.0
+    dashed = [
+        line.get_ydata()[0] for ax in fig.axes for line in ax.lines if line.get_linestyle() == "--"
+    ]
+    assert dashed == pytest.approx([-3.0, 10.0, 1.0, 0.5])  # the targets, one per panel

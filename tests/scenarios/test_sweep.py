@@ -288,7 +288,8 @@ def test_a_sweep_over_avoidance_writes_the_before_and_after_report(tmp_path, cap
     )
     out = tmp_path / "out"
     assert main(["sweep", str(path), "--out", str(out), "--workers", "2", "--no-progress"]) == 0
-    assert "avoidance.md, avoidance.json" in capsys.readouterr().out
+    assert "avoidance.md, avoidance.json, avoidance.png" in capsys.readouterr().out
+    assert (out / "avoidance.png").stat().st_size > 0
     doc = json.loads((out / "avoidance.json").read_text())
     (row,) = doc["rows"]
     assert row["avoidance"] == "orca" and row["seeds"] == [0, 1]

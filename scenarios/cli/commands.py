@@ -450,6 +450,7 @@ def cmd_soak(args) -> int:
 
 def cmd_sweep(args) -> int:
     """The ``mrta sweep`` command: run, then print where the outputs went."""
+    from scenarios.sweep.against import read_runs, write_against
     from scenarios.sweep.avoidance_report import avoidance_rows
     from scenarios.sweep.report import key_columns
     from scenarios.sweep.runner import run_sweep
@@ -457,6 +458,9 @@ def cmd_sweep(args) -> int:
 
     sweep = load_sweep(args.spec)
     out = args.out or Path("renders") / "sweeps" / sweep.name
+    against = getattr(args, "against", None)
+    if against is not None:  # a bad file is an error before anything runs
+        read_runs(against, key_columns(sweep), "--against")
     rows = run_sweep(
         args.spec,
         out,
@@ -472,6 +476,12 @@ def cmd_sweep(args) -> int:
         + (", avoidance.md, avoidance.json, avoidance.png" if report else "")
         + f" and {len(sweep.parameters)} sensitivity plot(s)"
     )
+    if against is not None:
+        doc = write_against(against, out, key_columns(sweep))
+        print(
+            f"against {against}: {len(doc['rows'])} group(s) paired by seed; "
+            f"wrote {out}/against.md, against.json"
+        )
     return 0
 
 

@@ -453,7 +453,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``mrta sweep SPEC.toml [--out DIR] [--workers N] [--scheduler ADDRESS]``."""
+    """Add ``mrta sweep SPEC.toml [--out DIR] [--against RUNS_CSV] [--workers N]
+    [--scheduler ADDRESS]``."""
     p = subparsers.add_parser(
         "sweep",
         help="run a parameter sweep file: runs.csv, summary.csv/json, sensitivity plots",
@@ -464,6 +465,15 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("spec", help="sweep TOML file, or a bundled sweep name (e.g. delta_u)")
     p.add_argument(
         "--out", type=Path, default=None, help="output folder (default renders/sweeps/<name>/)"
+    )
+    p.add_argument(
+        "--against",
+        type=Path,
+        default=None,
+        metavar="RUNS_CSV",
+        help="an earlier runs.csv of this sweep (another commit, another machine): after the "
+        "sweep, write against.md and against.json, every group paired by seed with the old "
+        "file's (mean per-seed change and its standard error); checked before anything runs",
     )
     add_runner_options(p)
     return p

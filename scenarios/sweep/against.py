@@ -19,17 +19,9 @@ from pathlib import Path
 
 from scenarios.experiments.output import write_json_atomic
 from scenarios.experiments.protocol import UserError
+from scenarios.sweep.columns import MOTION_METRICS
 
-METRICS = (
-    "completion_all",
-    "tasks_allocated",
-    "time_to_start_s",
-    "failed_tasks",
-    "contacts_robot_touch_per_robot_h",
-    "contacts_robot_impact_per_robot_h",
-    "contacts_wall_touch_per_robot_h",
-    "contacts_wall_impact_per_robot_h",
-)
+METRICS = ("completion_all", *MOTION_METRICS)
 TABLE = (  # (metric, column title, digits) of the markdown table, where the runs have it
     ("completion_all", "completion (test sets)", 4),
     ("tasks_allocated", "tasks allocated", 1),

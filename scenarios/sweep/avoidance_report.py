@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from scenarios.experiments.output import write_json_atomic
+from scenarios.sweep.columns import MOTION_METRICS
 
 PARAMETER = "spatial.avoidance"
 BASELINE = "none"
@@ -44,15 +45,7 @@ TARGETS = {
     "arrival": ("time to arrival <= +10%", 0.10),
     "failed": ("no failed task", 0),
 }
-NEEDED = (
-    "tasks_allocated",
-    "time_to_start_s",
-    "failed_tasks",
-    "contacts_robot_touch_per_robot_h",
-    "contacts_robot_impact_per_robot_h",
-    "contacts_wall_touch_per_robot_h",
-    "contacts_wall_impact_per_robot_h",
-)
+NEEDED = MOTION_METRICS  # a run without them (an abstract scenario) is left out
 
 
 def _mean(xs) -> float:

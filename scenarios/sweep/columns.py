@@ -8,6 +8,8 @@ SPATIAL_CONTACTS = tuple(
     f"contacts_{kind}_per_robot_h"
     for kind in ("robot_touch", "robot_impact", "wall_touch", "wall_impact")
 )
+# what the avoidance report and --against compare: tasks, arrival, failures and contacts
+MOTION_METRICS = ("tasks_allocated", "time_to_start_s", "failed_tasks", *SPATIAL_CONTACTS)
 
 METRIC_COLUMNS = (
     "completion_low",

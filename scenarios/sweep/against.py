@@ -60,7 +60,9 @@ def read_runs(path: Path, keys: list[str], what: str) -> dict[tuple, dict[int, d
     return out
 
 
-def _paired(old: list[float], new: list[float]) -> dict:
+def paired(old: list[float], new: list[float]) -> dict:
+    """Old and new means, the mean per-seed difference (new less old) and its standard error
+    (None with one seed), and both in % of the old mean (None when that mean is 0)."""
     diffs = [n - o for o, n in zip(old, new, strict=True)]
     mean_old = statistics.fmean(old)
     diff = statistics.fmean(diffs)
@@ -94,7 +96,7 @@ def compare(old: dict, new: dict, keys: list[str]) -> dict:
             a = [old[key][s][m] for s in seeds]
             b = [new[key][s][m] for s in seeds]
             if None not in a and None not in b:
-                row[m] = _paired(a, b)
+                row[m] = paired(a, b)
         rows.append(row)
     return {
         "rows": rows,

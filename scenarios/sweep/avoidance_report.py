@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from scenarios.experiments.output import write_json_atomic
+from scenarios.sweep.against import paired
 from scenarios.sweep.columns import MOTION_METRICS
 
 PARAMETER = "spatial.avoidance"
@@ -53,14 +54,13 @@ def _mean(xs) -> float:
 
 
 def _paired(base: list[float], other: list[float]) -> tuple[float, float | None]:
-    """(ratio of the means less one, standard error of the per-seed change in units of the
-    baseline's mean; None with fewer than two seeds)."""
-    scale = _mean(base)
-    change = _mean(other) / scale - 1.0
-    if len(base) < 2:
-        return change, None
-    diffs = [(o - b) / scale for b, o in zip(base, other, strict=True)]
-    return change, statistics.stdev(diffs) / math.sqrt(len(diffs))
+    """(change: the mean per-seed difference over the baseline's mean, which is the ratio of
+    the means less one; its standard error, None with fewer than two seeds), from
+    :func:`scenarios.sweep.against.paired`."""
+    p = paired(base, other)
+    if p["diff_pct"] is None:  # a baseline mean of 0: no relative change
+        return math.nan, None
+    return p["diff_pct"] / 100, None if p["diff_pct_se"] is None else p["diff_pct_se"] / 100
 
 
 def _side(runs: list[dict]) -> dict:

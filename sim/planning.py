@@ -54,11 +54,12 @@ def inflate(poly: np.ndarray, d_m: float) -> np.ndarray:
     lines_n, lines_c = [], []
     for i in range(len(poly)):
         prev = normal[i - 1]
-        if prev @ normal[i] < 0.0:
+        # dot products written out (not @): BLAS rounds them by CPU model (tests/test_golden.py)
+        if prev[0] * normal[i, 0] + prev[1] * normal[i, 1] < 0.0:
             bis = prev + normal[i]
-            bis /= np.linalg.norm(bis)
+            bis /= np.sqrt(bis[0] * bis[0] + bis[1] * bis[1])
             lines_n.append(bis)
-            lines_c.append(bis @ poly[i] + d_m)
+            lines_c.append(bis[0] * poly[i][0] + bis[1] * poly[i][1] + d_m)
         lines_n.append(normal[i])
         lines_c.append(offset[i] + d_m)
     n, c = np.array(lines_n), np.array(lines_c)
@@ -78,7 +79,9 @@ def polygon_signed_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     closest = a[None] + np.clip(t, 0.0, 1.0)[..., None] * ab[None]
     dist = np.linalg.norm(pts[:, None, :] - closest, axis=2).min(axis=1)
     normal, offset = halfplanes(poly)
-    inside = (pts @ normal.T - offset < 0).all(axis=1)
+    # written out, not pts @ normal.T: BLAS's kernel, and so the last bit, depends on the CPU
+    side = pts[:, :1] * normal[:, 0] + pts[:, 1:] * normal[:, 1]
+    inside = (side - offset < 0).all(axis=1)
     return np.where(inside, -dist, dist)
 
 
@@ -351,7 +354,8 @@ class GridPlanner:
             for k in bad.tolist():
                 p = np.clip(pts[k], self.lo_, self.hi_)
                 if len(self.polygons_):
-                    proj = self.normals_ @ p - self.offsets_
+                    proj = self.normals_[..., 0] * p[0] + self.normals_[..., 1] * p[1]
+                    proj = proj - self.offsets_
                     for q in np.flatnonzero((proj < -_TOL_M).all(axis=1)).tolist():
                         e = int(np.argmax(np.where(self.real_[q], proj[q], -np.inf)))
                         p = p + self.normals_[q, e] * (_SNAP_M - proj[q, e])

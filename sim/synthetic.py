@@ -39,6 +39,17 @@ def _inflate(poly: np.ndarray, margin_m: float) -> np.ndarray:
     return centre + out * (1.0 + margin_m / np.linalg.norm(out, axis=1, keepdims=True))
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """a . b of two 2-vectors without BLAS (whose kernel, and so the last bit, depends on the
+    CPU)."""
+    return float(a[0] * b[0] + a[1] * b[1])
+
+
+def _norm(a: np.ndarray) -> float:
+    """|a| of a 2-vector, as :func:`_dot` (``np.linalg.norm`` of a vector calls BLAS)."""
+    return float(np.sqrt(a[0] * a[0] + a[1] * a[1]))
+
+
 def _segment_hits(a: np.ndarray, b: np.ndarray, poly: np.ndarray) -> bool:
     """True if segment ab enters the convex polygon (Cyrus-Beck clipping)."""
     d = b - a
@@ -47,10 +58,10 @@ def _segment_hits(a: np.ndarray, b: np.ndarray, poly: np.ndarray) -> bool:
     centre = poly.mean(axis=0)
     for p, e in zip(poly, edges, strict=True):
         normal = np.array([e[1], -e[0]])
-        if normal @ (centre - p) > 0:  # make it point outward
+        if _dot(normal, centre - p) > 0:  # make it point outward
             normal = -normal
-        num = normal @ (a - p)
-        den = normal @ d
+        num = _dot(normal, a - p)
+        den = _dot(normal, d)
         if abs(den) < 1e-12:
             if num > 0:
                 return False
@@ -86,7 +97,7 @@ def _plan(
         if d > dist[i]:
             continue
         for j in range(1, n):
-            step = float(np.linalg.norm(points[j] - points[i]))
+            step = _norm(points[j] - points[i])
             if d + step < dist[j] and free(i, j):
                 dist[j] = d + step
                 prev[j] = i
@@ -170,7 +181,7 @@ def synthetic_trajectory(
             budget = SPEED_MPS * dt
             while paths[j] and budget > 0:
                 gap = paths[j][0] - pos[j]
-                dist = float(np.linalg.norm(gap))
+                dist = _norm(gap)
                 if dist <= budget:
                     pos[j] = paths[j].pop(0)
                     budget -= dist

@@ -3,12 +3,23 @@
 ``python tests/golden/cases.py`` rewrites ``golden.json``; do that only for a change that is
 meant to alter results, and say so in its commit message. The test (``tests/test_golden.py``)
 recomputes every case and compares it with the file bit for bit.
+
+The same on every x86-64 machine: both the writer and the test run the cases in a child Python
+(:func:`compute_portable`) whose numpy uses only the SIMD kernels of its baseline
+(``NPY_ENABLE_CPU_FEATURES``, :data:`PORTABLE_ENV`). numpy picks its kernels for exp, log,
+arctan2, power and complex products by what the CPU has (AVX-512, AVX2, neither), and they
+differ in the last bit: a run on an AVX-512 machine and one on an AVX2 machine part after a
+few hundred simulated seconds. The simulation calls no BLAS (whose kernel, chosen per CPU
+model, changed the last bits between an Intel and an AMD machine: README, "Reliability").
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
+import platform
+import subprocess
 import sys
 from pathlib import Path
 
@@ -16,6 +27,10 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 GOLDEN = HERE / "golden.json"
+ROOT = HERE.parents[1]
+# numpy's baseline kernels only (x86-64-v2; a name numpy does not know is ignored)
+PORTABLE_ENV = {"NPY_ENABLE_CPU_FEATURES": "X86_V2"}
+MACHINE = "x86_64"  # the architecture the golden file was written for
 
 PAPER_RULE = (("experience.refusal", "paper"),)
 RESERVE_RULE = (("experience.refusal", "reserve"),)
@@ -139,11 +154,46 @@ def run_case(scenario, allocator, cost, seed, overrides, control) -> dict:
     return out
 
 
-def compute() -> dict:
-    return {name: run_case(*args) for name, *args in CASES}
+def compute(names=None) -> dict:
+    """The cases ``names`` (default all) in this process (numpy's kernels as this CPU has
+    them)."""
+    return {name: run_case(*args) for name, *args in CASES if names is None or name in names}
+
+
+def compute_portable(names=(), env=None) -> dict:
+    """The cases ``names`` (default all) in a child Python with :data:`PORTABLE_ENV` (numpy's
+    baseline kernels) and ``env``: the same bits on every x86-64 machine."""
+    env = {**os.environ, **(env or {}), **PORTABLE_ENV, "PYTHONPATH": str(ROOT)}
+    child = subprocess.run(
+        [sys.executable, "-m", "tests.golden.cases", "--print", *names],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if child.returncode:
+        raise RuntimeError(f"golden cases failed in the child process:\n{child.stderr[-4000:]}")
+    return json.loads(child.stdout)
+
+
+def baseline_only() -> bool:
+    """True if this process's numpy uses its baseline kernels only (no dispatched ones)."""
+    from numpy._core import _multiarray_umath as umath
+
+    return not any(umath.__cpu_features__.get(f, False) for f in umath.__cpu_dispatch__)
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(HERE.parents[1]))
-    GOLDEN.write_text(json.dumps(compute(), indent=1, sort_keys=True, allow_nan=True) + "\n")
-    print(f"wrote {GOLDEN}")
+    sys.path.insert(0, str(ROOT))
+    if "--print" in sys.argv:  # the child of compute_portable
+        if not baseline_only():
+            sys.exit(f"numpy dispatches SIMD kernels here: run with {PORTABLE_ENV}")
+        names = sys.argv[sys.argv.index("--print") + 1 :] or None
+        print(json.dumps(compute(names), sort_keys=True, allow_nan=True))
+    else:
+        if platform.machine() != MACHINE:
+            sys.exit(f"golden.json is written on {MACHINE}, this is {platform.machine()}")
+        text = json.dumps(compute_portable(), indent=1, sort_keys=True, allow_nan=True)
+        GOLDEN.write_text(text + "\n")
+        print(f"wrote {GOLDEN}")

@@ -21,7 +21,7 @@ proportional to that hair, brings the heading ever nearer u but never across (th
 market, seed 6: a robot stood 24 s on a shelf's line until its task failed). So a line the
 heading runs nearly along (``|n . h|`` below ``SLACK_SHALLOW``, about 5.7 degrees) may be closed
 on at ``ROBOT_SLACK_MPS`` (robots' lines) or ``WALL_SLACK_MPS`` (walls' and lanes'): at most 0.5
-mm a control period, and only by a robot driving almost parallel to the line. The README has the
+mm a control period, and only by a robot driving almost parallel to the line. ``docs/avoidance.md`` has the
 measurements ("A robot frozen on a line"), and what a slack on every line did (a contact in the
 20-robot circle swap).
 
@@ -38,8 +38,8 @@ every pair pass the same way round, so the crowd turns as a roundabout instead o
 (``tests/sim/test_orca.py``: 20 robots swap a 5 m circle in 18.1 s, IR-SIM RVO 23.1 s, without a
 contact).
 ``BIAS_ROOM_M`` limits it to robots whose body has more room than that to the nearest obstacle;
-the default, ``-inf``, biases every such robot. 1.0 m was measured (README, "Where the
-warehouse's extra time to arrival comes from"): faster in both scenarios, but head-on pairs in
+the default, ``-inf``, biases every such robot. 1.0 m was measured (``docs/avoidance.md``,
+"Probes measured and not merged"): faster in both scenarios, but head-on pairs in
 the warehouse's 2 m aisles, which then no longer agree on a side, lost tasks to jams.
 
 Crowds: a robot's program has the lines of its ``MAX_NEIGHBOURS`` nearest robots, 10 as in

@@ -21,9 +21,9 @@ proportional to that hair, brings the heading ever nearer u but never across (th
 market, seed 6: a robot stood 24 s on a shelf's line until its task failed). So a line the
 heading runs nearly along (``|n . h|`` below ``SLACK_SHALLOW``, about 5.7 degrees) may be closed
 on at ``ROBOT_SLACK_MPS`` (robots' lines) or ``WALL_SLACK_MPS`` (walls' and lanes'): at most 0.5
-mm a control period, and only by a robot driving almost parallel to the line. ``docs/avoidance.md`` has the
-measurements ("A robot frozen on a line"), and what a slack on every line did (a contact in the
-20-robot circle swap).
+mm a control period, and only by a robot driving almost parallel to the line.
+``docs/avoidance.md`` has the measurements ("A robot frozen on a line"), and what a slack on
+every line did (a contact in the 20-robot circle swap).
 
 Walls: a robot that no robot half-plane binds still has the obstacle lines (the nearest
 obstacle point, and the two sides of a single lane): where its plan leaves one of them,

@@ -23,7 +23,7 @@ from sim.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import SpatialSpec
 from sim.sites import YIELD_STEP_M, YIELD_TIMEOUT_S, Sites
-from sim.stalls import NEAR_M
+from sim.stalls import NEAR_M, STILL_MPS
 from sim.tasks import Batch
 from sim.world import Abandon, Completion
 
@@ -390,18 +390,22 @@ class Jobs:
 
     def ask_idle(self, j: int, t: float) -> bool:
         """Collision avoidance on, robot j stuck: the nearest idle robot within ``NEAR_M`` (not
-        stepping aside already, not broken) steps off j's way (:meth:`step_off`), and j waits
-        one stuck timeout for it, spending a try. The speed caps ask only an idle robot straight
-        ahead (:meth:`make_way`); ORCA stops a robot for one beside it too: an idle robot
-        against the shelf at the mouth of a single-lane gap, off to one side, held a robot in
-        the gap until its task failed (warehouse, QL-MRTA, seed 4, with ORCA's 10 neighbours).
-        False, and nothing changes, if no idle robot is near, j has used its tries or no step is
-        free."""
+        broken) steps off j's way (:meth:`step_off`), and j waits one stuck timeout for it,
+        spending a try. The speed caps ask only an idle robot straight ahead (:meth:`make_way`);
+        ORCA stops a robot for one beside it too: an idle robot against the shelf at the mouth
+        of a single-lane gap, off to one side, held a robot in the gap until its task failed
+        (warehouse, QL-MRTA, seed 4, with ORCA's 10 neighbours). One already stepping aside or
+        driving out of a site is asked too if it stands (commanded below ``STILL_MPS``): one
+        that drove out through the service slot another robot was sent to stood there, face
+        to face with that robot, until the other's task failed (warehouse, QL-MRTA, seed 0, at
+        b773752). False, and nothing changes, if no idle robot is near, j has used its tries
+        or no step is free."""
         f = self.fleet
         if f.recoveries[j] >= self.spatial.max_recoveries:
             return False
         z = f.last_z_m
-        idle = (f.state == IDLE) & ~f.yielding & ~self.broken
+        standing = np.abs(f.v_cmd_mps) < STILL_MPS  # stepping aside, but not moving
+        idle = (f.state == IDLE) & (~f.yielding | standing) & ~self.broken
         dist = np.where(idle, np.abs(z - z[j]), np.inf)
         k = int(dist.argmin())
         if not dist[k] < NEAR_M:

@@ -671,6 +671,30 @@ def test_no_give_way_without_a_path_on_to_the_site():
     assert f.recoveries[1] == 0
 
 
+def test_a_stuck_robot_asks_aside_an_idle_robot_that_stands_while_driving_out():
+    """Warehouse, QL-MRTA, seed 0 (at b773752): robot 3 finished at a site and drove out
+    (``Sites.leave``, yielding) through the service slot robot 9 was sent to; the two stood
+    0.60 m apart for 12 s, and robot 9's tries went by (``ask_idle`` passed over robot 3 as
+    'stepping aside already') until its task failed. A robot that yields but stands in the
+    way is asked again: it steps off the stuck robot's way, and the stuck robot spends a try;
+    one that yields and moves is left to go on."""
+    w = orca_world([(4.0, 5.0), (6.0, 5.0)])
+    f = w.fleet
+    give(w, [0], [(8.0, 5.0)])  # robot 0's way runs straight through robot 1
+    f.last_z_m[:2] = [5.4 + 5.0j, 6.0 + 5.0j]
+    t = at(w, 30.0)
+    f.yielding[1], f.yield_until_s[1] = True, t + 10.0  # driving out ...
+    f.v_cmd_mps[1] = 0.5  # ... and moving: not asked, nothing changes
+    assert not w.jobs.ask_idle(0, t)
+    assert f.recoveries[0] == 0 and f.yield_until_s[1] == t + 10.0
+    f.v_cmd_mps[1] = 0.05  # ... standing
+    assert w.jobs.ask_idle(0, t)
+    assert f.recoveries[0] == 1 and f.t_progress_s[0] == t
+    assert f.yield_until_s[1] == t + YIELD_TIMEOUT_S
+    end = waypoints(w, 1)[-1]
+    assert abs(end.imag - 5.0) >= 1.0 - 1e-9  # off the way along y = 5, a step or two aside
+
+
 def test_recover_under_avoidance_goes_round_before_giving_way():
     w = orca_world([(10.0, 5.0), (4.0, 5.0)])
     f = w.fleet

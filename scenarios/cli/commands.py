@@ -105,7 +105,12 @@ def cmd_stream(args) -> int:
 
 
 def cmd_run(args) -> int:
-    from scenarios.experiments.manifest import build_manifest, read_manifest, write_manifest
+    from scenarios.experiments.manifest import (
+        build_manifest,
+        numerics_note,
+        read_manifest,
+        write_manifest,
+    )
     from scenarios.experiments.metrics import aggregate
     from scenarios.experiments.output import write_json_atomic
     from scenarios.experiments.progress import progress_bar, protocol_rounds
@@ -122,7 +127,10 @@ def cmd_run(args) -> int:
         if args.scenario:
             raise UserError("give either a scenario or --replay MANIFEST, not both")
         out = args.out or args.replay.parent / "replay"
-        _, specs = read_manifest(args.replay, scratch=out)
+        doc, specs = read_manifest(args.replay, scratch=out)
+        note = numerics_note(doc)
+        if note:
+            print(f"mrta: note: {args.replay}: {note}", file=sys.stderr)
         spec = specs[0]
     elif not args.scenario:
         raise UserError("run needs a SCENARIO (or --replay MANIFEST)")

@@ -2,14 +2,17 @@
 
 Every output folder gets ``run_manifest.json``: package and library versions, Python, the
 command line, the scenario (name, file, SHA-256 and its full TOML text) and the run specs
-(allocator, cost model, seed, overrides). ``mrta run --replay MANIFEST`` re-runs the spec on
-the scenario text stored in the manifest and must give an identical ``metrics.json``.
+(allocator, cost model, seed, overrides), and the numerics a run's last bits depend on
+(:func:`numerics`). ``mrta run --replay MANIFEST`` re-runs the spec on the scenario text stored
+in the manifest and must give an identical ``metrics.json`` on a machine with the same numerics;
+where they differ it says so on one line (:func:`numerics_note`) and runs anyway.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
 import platform
 import sys
 from dataclasses import asdict, fields
@@ -31,6 +34,45 @@ def _version(dist: str) -> str:
         return "not installed"
 
 
+def numerics() -> dict:
+    """What a run's floating-point bits depend on beyond the library versions: the machine's
+    architecture and the SIMD kernels numpy dispatches to here (its exp, log, arctan2, power
+    and complex products round differently with AVX-512, AVX2 or its baseline kernels; README,
+    "Reliability"), with the environment variables that choose them."""
+    from numpy._core import _multiarray_umath as umath
+
+    found = umath.__cpu_features__
+    return {
+        "machine": platform.machine(),
+        "numpy_baseline": list(umath.__cpu_baseline__),
+        "numpy_dispatch": [f for f in umath.__cpu_dispatch__ if found.get(f, False)],
+        "env": {
+            k: os.environ[k]
+            for k in ("NPY_ENABLE_CPU_FEATURES", "NPY_DISABLE_CPU_FEATURES")
+            if k in os.environ
+        },
+    }
+
+
+def numerics_note(doc: dict) -> str | None:
+    """One line when the manifest ``doc`` was written with other numerics than this process
+    has (so a replay may differ in the last bits, and a spatial run in more); None when they
+    match or the manifest predates the record."""
+    then = doc.get("numerics")
+    if not isinstance(then, dict):
+        return None
+    now = numerics()
+    keys = ("machine", "numpy_baseline", "numpy_dispatch")
+    if all(then.get(k) == now[k] for k in keys):
+        return None
+    was = f"{then.get('machine')} {'+'.join(then.get('numpy_dispatch') or ['baseline'])}"
+    here = f"{now['machine']} {'+'.join(now['numpy_dispatch'] or ['baseline'])}"
+    return (
+        f"recorded with numpy kernels {was}, here {here}: results may differ from the "
+        "recorded ones (NPY_ENABLE_CPU_FEATURES=X86_V2 on both sides makes x86-64 runs match)"
+    )
+
+
 def build_manifest(scenario: Scenario, specs: list[RunSpec], argv: list[str] | None = None) -> dict:
     text = (
         Path(scenario.source).read_text()
@@ -43,6 +85,7 @@ def build_manifest(scenario: Scenario, specs: list[RunSpec], argv: list[str] | N
         "python": sys.version.split()[0],
         "platform": platform.platform(),
         "libraries": {lib: _version(lib) for lib in LIBRARIES},
+        "numerics": numerics(),
         "command": ["mrta", *(argv if argv is not None else sys.argv[1:])],
         "scenario": {
             "name": scenario.name,
@@ -98,4 +141,4 @@ def read_manifest(path: Path, scratch: Path) -> tuple[dict, list[RunSpec]]:
     return doc, specs
 
 
-__all__ = ["build_manifest", "read_manifest", "write_manifest"]
+__all__ = ["build_manifest", "numerics", "numerics_note", "read_manifest", "write_manifest"]

@@ -141,6 +141,31 @@ def test_cli_replay_gives_identical_metrics(tmp_path, capsys):
     assert (tmp_path / "again" / "metrics.json").read_bytes() == (out / "metrics.json").read_bytes()
 
 
+def test_manifest_records_the_numerics_and_replay_says_when_they_differ(tmp_path, capsys):
+    """The manifest holds the machine and numpy's SIMD kernels in use (they decide a run's
+    last bits); a replay on other numerics runs, with one note line on stderr, and one on the
+    same numerics prints nothing."""
+    from numpy._core import _multiarray_umath as umath
+
+    out = tmp_path / "run"
+    assert main(["run", "paper", "--allocator", "market", "--seed", "1", "--out", str(out)]) == 0
+    path = out / "run_manifest.json"
+    doc = json.loads(path.read_text())
+    rec = doc["numerics"]
+    assert rec["numpy_baseline"] == list(umath.__cpu_baseline__)
+    assert set(rec["numpy_dispatch"]) <= set(umath.__cpu_dispatch__)
+    capsys.readouterr()
+    assert main(["run", "--replay", str(path), "--out", str(tmp_path / "same")]) == 0
+    assert "note" not in capsys.readouterr().err
+    rec["numpy_dispatch"] = ["NOT_A_CPU"]
+    path.write_text(json.dumps(doc))
+    assert main(["run", "--replay", str(path), "--out", str(tmp_path / "other")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "mrta: note:" in err and "NOT_A_CPU" in err
+    same = (tmp_path / "same" / "metrics.json").read_bytes()
+    assert (tmp_path / "other" / "metrics.json").read_bytes() == same
+
+
 def test_cli_resume_without_checkpoint_is_a_clean_error(tmp_path, capsys):
     code = main(["run", "paper", "--resume", "--out", str(tmp_path)])
     err = capsys.readouterr().err

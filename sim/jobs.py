@@ -312,7 +312,8 @@ class Jobs:
         self.follower.clear(j)
         if self.clear_sites:
             self.sites.release(j)
-            self.sites.leave(j, t_done_s)
+            if not self.sites.leave(j, t_done_s):
+                self.sites.pull_over(j, t_done_s)
         if refresh:
             self.refresh()
 

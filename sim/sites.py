@@ -5,9 +5,10 @@ A site has a service point and up to ``SLOTS`` service slots round it. :class:`S
 robots in to a free place, first come first served, holds the others in the site's queue
 (drawn as waiting, not stuck), sends a robot that finds the service point taken to a slot, and
 makes a robot that finished (or stands idle) near a site others come to step clear or drive
-out past the crowd. :class:`~sim.jobs.Jobs` owns one and calls it on task events; the control
-period (``sim.control``) asks it for slots when a robot near its site finds the service point
-taken. Without collision avoidance robots push and none of this runs.
+out past the crowd; one that finished where nobody comes pulls over in a narrow place.
+:class:`~sim.jobs.Jobs` owns one and calls it on task events; the control period
+(``sim.control``) asks it for slots when a robot near its site finds the service point taken.
+Without collision avoidance robots push and none of this runs.
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ EXIT_TIMEOUT_S = 20.0  # ... and gives up driving out after this long
 HOLD_MAX_S = 300.0  # a robot may hold in a site's queue this long before its task times out
 YIELD_STEP_M = 1.0  # how far an idle robot steps aside
 YIELD_TIMEOUT_S = 6.0
+PULL_ROOM_M = 1.0  # an idle robot with less room than this to an obstacle pulls over to it ...
+PULL_GAP_M = 0.15  # ... leaving this much air between its body and the obstacle, m
 
 
 class Sites:
@@ -306,6 +309,32 @@ class Sites:
                 f.yielding[j], f.yield_until_s[j] = True, t + EXIT_TIMEOUT_S
                 return True
         return False
+
+    def pull_over(self, j: int, t: float) -> bool:
+        """Robot j, idle where no robot comes to its site, stands in a narrow place (less than
+        ``PULL_ROOM_M`` between its body and the nearest obstacle): it pulls over toward that
+        obstacle to ``PULL_GAP_M`` of air, so a robot can pass it. True if it drives there;
+        the caller calls ``refresh``."""
+        f, r = self.fleet, self.controller.radius_m
+        z = complex(f.last_z_m[j])
+        if self.broken[j]:
+            return False
+        ob = complex(self.follower.to_obstacle(np.array([z]))[0])
+        d = abs(ob)
+        if not np.isfinite(d) or not (PULL_GAP_M + 0.05 < d - r < PULL_ROOM_M):
+            return False
+        end = z + ob / d * (d - r - PULL_GAP_M)
+        if not self.planner.free_one(end.real, end.imag):
+            return False
+        others = np.delete(f.last_z_m, j)
+        if len(others) and np.abs(others - end).min() < 2.0 * r + SLOT_GAP_M:
+            return False
+        path = self.planner.path((z.real, z.imag), (end.real, end.imag))
+        if not len(path):
+            return False
+        self.follower.set_path(j, path)
+        f.yielding[j], f.yield_until_s[j] = True, t + YIELD_TIMEOUT_S
+        return True
 
     @staticmethod
     def clearance(z: complex, ends: np.ndarray, others: np.ndarray) -> np.ndarray:

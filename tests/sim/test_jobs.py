@@ -695,6 +695,39 @@ def test_a_stuck_robot_asks_aside_an_idle_robot_that_stands_while_driving_out():
     assert abs(end.imag - 5.0) >= 1.0 - 1e-9  # off the way along y = 5, a step or two aside
 
 
+SHELF = [((8.0, 6.0), (12.0, 6.0), (12.0, 7.0), (8.0, 7.0))]  # a shelf face along y = 6
+
+
+def test_an_idle_robot_in_a_narrow_place_pulls_over_to_the_nearest_obstacle():
+    """Body 0.65 m from the shelf face (< PULL_ROOM_M): it drives toward it and stops with
+    PULL_GAP_M of air (centre at 6 - 0.25 - 0.15 = 5.6 m), yielding meanwhile; one in the
+    open and one whose end point another robot stands near stay."""
+    w = orca_world([(10.0, 5.1), (3.0, 3.0)], obstacles=SHELF)
+    f = w.fleet
+    t = at(w, 10.0)
+    assert w.jobs.sites.pull_over(0, t)
+    assert abs(waypoints(w, 0)[-1] - (10.0 + 5.6j)) < 1e-9
+    assert f.yielding[0] and f.yield_until_s[0] == t + YIELD_TIMEOUT_S
+    assert not w.jobs.sites.pull_over(1, t) and not f.yielding[1]
+    w2 = orca_world([(10.0, 5.1), (10.6, 5.6)], obstacles=SHELF)
+    assert not w2.jobs.sites.pull_over(0, t) and w2.follower.last[0] == -1
+
+
+def test_a_robot_that_finishes_in_a_narrow_place_pulls_over_when_nobody_comes():
+    w = orca_world([(10.0, 5.1), (3.0, 3.0)], obstacles=SHELF)
+    f = w.fleet
+    give(w, [0], [(10.0, 5.1)])
+    f.state[0] = WORKING
+    w.jobs.finish(0, at(w, 12.0), True)
+    assert f.state[0] == IDLE and f.yielding[0]
+    assert abs(waypoints(w, 0)[-1] - (10.0 + 5.6j)) < 1e-9
+    off = make_world([(10.0, 5.1), (3.0, 3.0)], obstacles=SHELF, avoidance="none")
+    give(off, [0], [(10.0, 5.1)])
+    off.fleet.state[0] = WORKING
+    off.jobs.finish(0, at(off, 12.0), True)  # without avoidance robots push: no pulling over
+    assert not off.fleet.yielding[0]
+
+
 def test_recover_under_avoidance_goes_round_before_giving_way():
     w = orca_world([(10.0, 5.0), (4.0, 5.0)])
     f = w.fleet

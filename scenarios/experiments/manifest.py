@@ -39,13 +39,16 @@ def numerics() -> dict:
     architecture and the SIMD kernels numpy dispatches to here (its exp, log, arctan2, power
     and complex products round differently with AVX-512, AVX2 or its baseline kernels; README,
     "Reliability"), with the environment variables that choose them."""
-    from numpy._core import _multiarray_umath as umath
+    try:
+        from numpy._core import _multiarray_umath as umath
+    except ImportError:  # numpy 1.x
+        from numpy.core import _multiarray_umath as umath
 
-    found = umath.__cpu_features__
+    found = getattr(umath, "__cpu_features__", {})
     return {
         "machine": platform.machine(),
-        "numpy_baseline": list(umath.__cpu_baseline__),
-        "numpy_dispatch": [f for f in umath.__cpu_dispatch__ if found.get(f, False)],
+        "numpy_baseline": list(getattr(umath, "__cpu_baseline__", [])),
+        "numpy_dispatch": [f for f in getattr(umath, "__cpu_dispatch__", []) if found.get(f)],
         "env": {
             k: os.environ[k]
             for k in ("NPY_ENABLE_CPU_FEATURES", "NPY_DISABLE_CPU_FEATURES")

@@ -27,10 +27,11 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from sim.control.orca import AVOIDANCE
+from sim.jams import LOOK_AHEAD
 from sim.planning import GridPlanner, polygon_signed_distance
 from sim.scenario import DriveSpec, RobotSpec, SpatialSpec
 
-_WORDS = {"avoidance": AVOIDANCE}  # string keys and their allowed values
+_WORDS = {"avoidance": AVOIDANCE, "look_ahead": LOOK_AHEAD}  # string keys, allowed values
 _NUMBERS = {
     f.name: f.default for f in fields(SpatialSpec) if f.name not in {"obstacles", "sites", *_WORDS}
 }

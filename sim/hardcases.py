@@ -43,10 +43,11 @@ def swap_world(
     obstacles=(),
     headings_deg=None,
     drive: DriveSpec = ONE_MPS,
+    look_ahead: str = "off",
 ) -> PymunkWorld:
     """Robots at ``starts`` (m, 2), facing ``headings_deg`` (default +x), each sent at once to
     its own goal (one task type per robot, 1000 s of work: it stays there), in a ``size_m``
-    arena with ``obstacles``, driving as ``drive``."""
+    arena with ``obstacles``, driving as ``drive``, with ``[spatial] look_ahead`` as given."""
     n = len(starts)
     sp = SpatialSpec(
         size_m[0],
@@ -56,6 +57,7 @@ def swap_world(
         drive,
         arrive_tol_m=0.1,
         avoidance=avoidance,
+        look_ahead=look_ahead,
     )
     heads = [0.0] * n if headings_deg is None else [float(a) for a in headings_deg]
     robots = tuple(

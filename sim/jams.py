@@ -4,7 +4,10 @@ robot at work.
 No robot pushes under collision avoidance, so robots that stop each other must act.
 :class:`Jams` holds the rules: a robot stuck among others plans round them
 (:meth:`Jams.go_round`) or, in a deadlock, the one that can backs out (:meth:`Jams.give_way`);
-a robot standing beside one at work for another site goes round it (:meth:`Jams.pass_workers`);
+a robot standing beside one at work for another site goes round it (:meth:`Jams.pass_workers`),
+and, with ``[spatial] look_ahead = "on"``, a robot whose way runs past one at work that will
+still be there when it comes plans round it beforehand, if that is quicker than waiting
+(:meth:`Jams.look_ahead`);
 a jam in a single-lane place, or two robots standing together alone, is acted on after
 ``PASS_S`` rather than at the stuck timeout (:meth:`Jams.break_jams`).
 :class:`~sim.jobs.Jobs` owns one: its stuck recovery calls the first two, and the pymunk
@@ -35,6 +38,12 @@ PASS_S = 2.0  # avoidance on: a robot stood this long beside a driving robot act
 LANE_GAP_M = 0.1  # ... in a place where it cannot step this far beyond a robot's width aside;
 # beside a robot at work at another site (pass_workers) it ...
 PASS_EXTRA_M = 3.0  # ... plans round it, and takes that path if at most this much longer, m
+LOOK_AHEAD = ("off", "on")  # values of the scenario key ``[spatial] look_ahead`` (avoidance on)
+# look_ahead: a robot whose way passes this close (centres) to a robot at work ...
+AHEAD_BLOCK_M = 0.9
+AHEAD_WAIT_S = 2.0  # ... that will work this much longer when it gets there plans round it,
+AHEAD_GROW_M = 0.3  # ... the robot at work grown by this (a 2 m aisle is closed), and takes that
+# way if driving its extra length at top speed is quicker than that wait
 
 
 class Jams:
@@ -74,6 +83,8 @@ class Jams:
         m = len(fleet.state)
         self.origin = fleet.site.copy()
         self.around_s = np.full(m, -np.inf)
+        self.due = np.zeros(m, dtype=bool)  # look_ahead: robots given a task ...
+        self.began = np.zeros(m, dtype=bool)  # ... and robots that began work, since the last
 
     def go_round(self, j: int, t: float) -> bool:
         """Robot j is stuck among other robots (collision avoidance on; within ``AROUND_M``):
@@ -105,6 +116,96 @@ class Jams:
         f.progress_m[j], f.t_progress_s[j] = np.inf, t
         self.refresh()
         return True
+
+    def look_ahead(self, t: float) -> None:
+        """Collision avoidance on and ``[spatial] look_ahead = "on"`` (the world calls it
+        before a control period's jam rules): robot-aware planning.
+        A robot given a task (``due``), or one whose way a robot that began work (``began``)
+        blocks, is looked at (the marks are cleared): if it drives toward its place (not
+        holding in a queue or let in at its site) and its way passes within ``AHEAD_BLOCK_M``
+        of a robot at work for another site, at a point more than that far along it (ahead,
+        not beside it already: :meth:`pass_workers`), that will still work more than
+        ``AHEAD_WAIT_S`` when it gets there at top speed, it plans its way round the robots
+        at work at other sites within ``AROUND_M`` of its way, each grown by
+        ``AHEAD_GROW_M`` (``GridPlanner.path_around``), and takes that way if its extra
+        length at top speed takes less than the longest such wait. Without it a robot drives
+        up to one at work in a 2 m aisle, where ORCA leaves a band of about 10 cm to pass
+        in, and stands there (``docs/avoidance.md``)."""
+        if not (self.due.any() or self.began.any()):
+            return
+        f, fol, z = self.fleet, self.follower, self.fleet.last_z_m
+        drive = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t)
+        drive &= ~self.sites.holding & ~self.sites.admitted & (fol.last >= 0)
+        look = self.due & drive
+        began = (self.began & (f.state == WORKING)).nonzero()[0]
+        self.due[:] = self.began[:] = False
+        work = (f.state == WORKING).nonzero()[0]
+        if not len(work):
+            return
+        if len(began) and drive.any():  # whose way a robot that began work blocks
+            rows = drive.nonzero()[0]
+            look[rows[self.waits(rows, began, t)[0].max(axis=1) > AHEAD_WAIT_S]] = True
+        rows = look.nonzero()[0]
+        if not len(rows):
+            return
+        v_max, radius = fol.v_max_mps, self.controller.radius_m
+        wait, _, gap = self.waits(rows, work, t)
+        for row in (wait.max(axis=1) > AHEAD_WAIT_S).nonzero()[0].tolist():
+            j = int(rows[row])
+            site = (f.site[j].real, f.site[j].imag)
+            start = (z[j].real, z[j].imag)
+            round_them = z[work[gap[row] < AROUND_M]]
+            path = self.planner.path_around(start, site, round_them, radius + AHEAD_GROW_M)
+            if not len(path):
+                continue
+            length = float(np.abs(np.diff(path[:, 0] + 1j * path[:, 1])).sum())
+            if (length - self.way_left_m(j)) / v_max >= wait[row].max():
+                continue
+            fol.set_path(j, path)
+            f.progress_m[j], f.t_progress_s[j] = np.inf, t
+            self.refresh()
+
+    def way_left_m(self, j: int) -> float:
+        """Length of robot j's way from where it is along the rest of its path, m."""
+        fol, i = self.follower, int(self.follower.index[j])
+        return float(abs(fol.points[j, i] - self.fleet.last_z_m[j]) + fol.after_m[j, i])
+
+    def waits(self, rows: np.ndarray, work: np.ndarray, t: float):
+        """For robots ``rows`` and robots at work ``work``, each (n, w): how long each would wait
+        for each (work left after getting there along its way at top speed; 0 where the way
+        does not pass within ``AHEAD_BLOCK_M``, or the robot at work is at its own site), the
+        way's length to the point nearest it, m, and how near the way passes it (inf: it
+        works at the robot's own site), m."""
+        f, fol, z = self.fleet, self.follower, self.fleet.last_z_m
+        pts, idx, last = fol.points[rows], fol.index[rows], fol.last[rows]
+        col = np.arange(pts.shape[1])
+        start = np.where(col == idx[:, None], z[rows, None], np.roll(pts, 1, axis=1))
+        seg = pts - start  # (n, P): the segment into each waypoint; the first from the robot
+        live = (col >= idx[:, None]) & (col <= last[:, None])
+        seg2 = (seg * seg.conj()).real
+        rel = z[work][None, :, None] - start[:, None, :]  # (n, w, P)
+        frac = (rel * seg.conj()[:, None, :]).real / np.maximum(seg2, 1e-18)[:, None, :]
+        frac = np.clip(frac, 0.0, 1.0)
+        gap = np.abs(rel - frac * seg[:, None, :])
+        gap = np.where(live[:, None, :], gap, np.inf)
+        near = gap.argmin(axis=2)  # (n, w): the segment passing nearest
+        pick = np.take_along_axis
+        nearest = pick(gap, near[..., None], axis=2)[..., 0]
+        close = nearest < AHEAD_BLOCK_M
+        seg_m = np.sqrt(seg2)
+        after = fol.after_m[rows]
+        rest = pick(after, near, axis=1) + (
+            1.0 - pick(frac, near[..., None], axis=2)[..., 0]
+        ) * pick(seg_m, near, axis=1)
+        total = np.abs(pick(pts, idx[:, None], axis=1) - z[rows, None]) + pick(
+            after, idx[:, None], axis=1
+        )
+        along = total - rest
+        other = np.abs(self.sites.service[rows, None] - self.sites.service[work][None, :]) > 1e-6
+        left = f.work_end_s[work][None, :] - t - along / fol.v_max_mps
+        ahead = along > AHEAD_BLOCK_M  # ahead of it, not beside it already
+        wait = np.where(close & ahead & other, np.maximum(left, 0.0), 0.0)
+        return wait, along, np.where(other, nearest, np.inf)
 
     def standing_near(self, t: float) -> list[tuple[int, int]]:
         """Collision avoidance on: (j, k) for each driving robot j commanded to stand (below

@@ -169,6 +169,7 @@ class Jobs:
             paths.append(path)
         for j, length in zip(rows, self.follower.set_paths(rows, paths), strict=True):
             f.state[j] = DRIVING
+            self.jams.due[j] = True
             f.left_m[j], f.progress_m[j], f.t_progress_s[j] = length, np.inf, t
             f.deadline_s[j] = self.deadline_s(j, length, t)
         for j in blocked:
@@ -263,6 +264,7 @@ class Jobs:
             v[j] = w[j] = 0.0
             sch.next_end_s = min(sch.next_end_s, f.work_end_s[j])
         if arrived:
+            self.jams.began[arrived] = True  # ways may pass them (Jams.look_ahead)
             self.refresh()
 
     def end_due(self, t: float) -> None:

@@ -39,7 +39,10 @@ already standing at the site), works for the type's execution time and stays whe
 A robot that makes no progress for ``stuck_timeout_s`` drives round the robot in its way or backs
 off on a random arc (from the world's generator) and replans; one boxed in by a robot at work that
 will be done within ``stuck_timeout_s`` waits for it instead; with avoidance on, one that stands
-2 s in a jam in a single-lane place, or alone with one other, acts then (``Jams.break_jams``).
+2 s in a jam in a single-lane place, or alone with one other, acts then (``Jams.break_jams``),
+and with ``[spatial] look_ahead = "on"`` a robot whose way runs past a robot at work that would
+keep it waiting plans round it when it is given its task or that robot begins work
+(``Jams.look_ahead``).
 After ``max_recoveries`` tries, or
 not at work by its deadline (work begun is finished), or if no path exists, the task is reported
 as a failed Completion with a reason.
@@ -459,6 +462,8 @@ class PymunkWorld:
             return
         self.control.period(t)
         if self.jobs.clear_sites:
+            if self.spatial.look_ahead == "on":
+                self.jobs.jams.look_ahead(t)
             near = self.jobs.jams.standing_near(t)
             self.jobs.jams.pass_workers(t, near)
             self.jobs.jams.break_jams(t, near)

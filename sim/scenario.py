@@ -108,6 +108,7 @@ class SpatialSpec:
     avoidance: str = (
         "orca"  # reciprocal collision avoidance (sim.control.orca); "none": proximity law
     )
+    look_ahead: str = "off"  # "on": plan round robots at work in the way (sim.jams.Jams.look_ahead)
 
 
 FAULT_POLICIES = ("requeue", "drop")

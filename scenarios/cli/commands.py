@@ -14,8 +14,10 @@ MIN_SEEDS = 5
 
 
 def avoidance_overrides(args) -> tuple[tuple[str, str], ...]:
-    """The scenario override ``--avoidance`` asks for (none when it was not given)."""
-    return () if args.avoidance is None else (("spatial.avoidance", args.avoidance),)
+    """The scenario overrides ``--avoidance`` and ``--look-ahead`` ask for (none when not
+    given)."""
+    out = () if args.avoidance is None else (("spatial.avoidance", args.avoidance),)
+    return out + (() if args.look_ahead is None else (("spatial.look_ahead", args.look_ahead),))
 
 
 def warn_few_seeds(seeds: list[int]) -> None:

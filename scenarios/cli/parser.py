@@ -120,9 +120,18 @@ AVOIDANCE_HELP = (
 )
 
 
+LOOK_AHEAD_HELP = (
+    "robot-aware planning of a spatial scenario with avoidance on, overriding its [spatial] "
+    "look_ahead: on (a robot whose way runs past a robot at work that would keep it waiting "
+    "plans round it when it is given its task or that robot begins work) or off (the default)"
+)
+
+
 def _avoidance_option(parser) -> None:
-    """``--avoidance orca|none``: a spatial run with or without collision avoidance."""
+    """``--avoidance orca|none`` and ``--look-ahead off|on``: a spatial run with or without
+    collision avoidance, and with or without planning round robots at work."""
     parser.add_argument("--avoidance", choices=("orca", "none"), default=None, help=AVOIDANCE_HELP)
+    parser.add_argument("--look-ahead", choices=("off", "on"), default=None, help=LOOK_AHEAD_HELP)
 
 
 FAULT_WORDS = {

@@ -40,11 +40,15 @@ from scenarios.experiments.metrics import (
 from scenarios.loader import load_scenario
 from sim import make_world
 from sim.control.orca import AVOIDANCE
+from sim.jams import LOOK_AHEAD
 from sim.scenario import Scenario
 from sim.tasks import TaskStream, generate_stream, load_stream
 
 OVERRIDABLE = ("stream", "learning", "experience", "faults")
-SPATIAL_OVERRIDES = {"spatial.avoidance": AVOIDANCE}  # spatial keys a run may override: values
+SPATIAL_OVERRIDES = {  # spatial keys a run may override: values
+    "spatial.avoidance": AVOIDANCE,
+    "spatial.look_ahead": LOOK_AHEAD,
+}
 
 
 class UserError(ValueError):

@@ -75,6 +75,15 @@ def test_avoidance_words_are_kept():
     assert parse_scenario(d).spatial.avoidance == "orca"  # on unless a scenario says "none"
 
 
+def test_look_ahead_is_off_unless_a_scenario_turns_it_on():
+    d = doc()
+    assert parse_scenario(d).spatial.look_ahead == "off"
+    d["spatial"]["look_ahead"] = "on"
+    assert parse_scenario(d).spatial.look_ahead == "on"
+    d["spatial"]["look_ahead"] = True
+    assert fails(d) == 'x.toml: spatial.look_ahead: must be "off" or "on"; got True'
+
+
 def test_locate_prefers_an_existing_file_then_the_bundle_then_a_path_shape(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     Path("notes").write_text("")

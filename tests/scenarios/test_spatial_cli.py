@@ -186,6 +186,11 @@ def test_every_spatial_command_takes_avoidance(command):
     assert avoidance_overrides(args) == (("spatial.avoidance", "none"),)
     with pytest.raises(SystemExit):
         parser.parse_args([*argv, "--avoidance", "rvo"])
+    args = parser.parse_args([*argv, "--look-ahead", "on", "--avoidance", "orca"])
+    want = (("spatial.avoidance", "orca"), ("spatial.look_ahead", "on"))
+    assert avoidance_overrides(args) == want
+    with pytest.raises(SystemExit):
+        parser.parse_args([*argv, "--look-ahead", "yes"])
 
 
 def test_avoidance_on_a_scenario_without_space_is_one_line(tmp_path, capsys):
@@ -194,6 +199,10 @@ def test_avoidance_on_a_scenario_without_space_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and not out.exists()
     assert "override 'spatial.avoidance': 'paper' has no [spatial] table" in err
+    code = main(["run", "paper", "--look-ahead", "on", "--no-progress", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and not out.exists()
+    assert "override 'spatial.look_ahead': 'paper' has no [spatial] table" in err
 
 
 def test_stall_places_are_the_longest_cells_and_the_panels_their_groups():

@@ -1155,16 +1155,17 @@ def test_step_clear_skips_a_broken_robot_and_serves_the_next():
     assert w.follower.last[0] == -1 and len(waypoints(w, 1)) == 2
 
 
-def _gap_world(second_gap_y: float):
+def _gap_world(second_gap_y: float, look_ahead: str = "off"):
     """A wall across a 12 x 8 m arena at x = 6 with a 1.4 m gap at y = 3, where a robot works
     (1000 s), and a second gap centred at ``second_gap_y``; robot 0 drives from (3, 3) to
-    (9, 3), straight through the first gap (the planner ignores robots)."""
+    (9, 3), straight through the first gap (the planner ignores robots; ``[spatial]
+    look_ahead`` as given)."""
     from sim.hardcases import swap_world
 
     lo, hi = second_gap_y - 0.7, second_gap_y + 0.7
     walls = [((5.9, a), (6.1, a), (6.1, b), (5.9, b)) for a, b in [(0, 2.3), (3.7, lo), (hi, 8)]]
     starts, goals = [(3.0, 3.0), (6.0, 3.0)], [(9.0, 3.0), (6.0, 3.0)]
-    return swap_world(starts, goals, (12.0, 8.0), "auto", "orca", walls)
+    return swap_world(starts, goals, (12.0, 8.0), "auto", "orca", walls, look_ahead=look_ahead)
 
 
 def _arrive(world) -> tuple[float, float]:
@@ -1350,3 +1351,93 @@ def test_break_jams_leaves_a_robot_alone_beside_one_at_work_holding_or_backing_o
         w.jobs.jams.break_jams(t)
         assert f.recoveries[:2].tolist() == [0, 0], change
         assert np.all(f.t_progress_s[:2] == 20.0), change
+
+
+# ---- robot-aware planning: looking ahead past robots at work (look_ahead) ----------------
+
+
+def _first_look(world):
+    """Advance ``world`` (``_gap_world``) until robot 1 is at work and robot 0 has been looked
+    at (the period after robot 1 began work); the time."""
+    jams = world.jobs.jams
+    while not (world.fleet.state[1] == WORKING and not (jams.due.any() or jams.began.any())):
+        world.advance(0.1)
+        assert world.time_s < 5.0
+    return world.time_s
+
+
+def test_a_robot_plans_round_one_at_work_in_its_way_before_it_gets_there():
+    """Robot 1 works (1000 s) in the gap robot 0's way runs through: as soon as robot 1 is
+    at work robot 0 plans its way through the second gap (2.3 m longer, far quicker than
+    waiting), without a try and before it has come near; it reaches its site sooner than
+    with ``[spatial] look_ahead = "off"`` (the default: it drives up, stands ``PASS_S``
+    beside the robot at work and goes round, ``pass_workers``), whose way is still the
+    straight one then."""
+    import sim.jams
+
+    off = _gap_world(5.0)
+    while off.fleet.state[1] != WORKING:
+        off.advance(0.1)
+    off.advance(0.2)
+    assert waypoints(off, 0).imag.max() < 3.1  # the way it was given: through robot 1
+    world = _gap_world(5.0, look_ahead="on")
+    t0 = _first_look(world)
+    f = world.fleet
+    assert t0 < 1.0 and waypoints(world, 0).imag.max() > 4.3  # through the second gap
+    assert abs(f.last_z_m[0] - (3 + 3j)) < 0.3 and f.recoveries[0] == 0
+    t_on, top_on = _arrive(world)
+    t_off, top_off = _arrive(off)
+    assert top_on > 4.3 and top_off > 4.3
+    assert np.isfinite(t_on) and t_on < t_off - sim.jams.PASS_S
+
+
+def test_looking_ahead_keeps_the_way_when_waiting_is_quicker_or_the_site_is_shared():
+    """Robot 0's way passes robot 1 at work about 3 m ahead; the other gap is far (the way
+    round it several metres longer). Robot 0 keeps its way, unchanged and its clock
+    untouched, when robot 1's work ends before robot 0 would wait ``AHEAD_WAIT_S`` there,
+    when the way round takes 0.1 s longer at top speed than the wait, and when robot 1 works
+    for robot 0's own site (the site's queue and slots decide); with the wait 0.1 s longer
+    than the way round it goes round. Called directly, at one moment."""
+    import sim.jams
+
+    wait_s = sim.jams.AHEAD_WAIT_S
+    world = _gap_world(6.9)  # look_ahead "off": only the direct calls below look
+    f, jobs = world.fleet, world.jobs
+    while f.state[1] != WORKING:
+        world.advance(0.1)
+    t = world.time_s
+    before, clock = waypoints(world, 0).copy(), f.t_progress_s[0]
+    wait, along, gap = jobs.jams.waits(np.array([0]), np.array([1]), t)
+    assert gap[0, 0] < 0.1  # the way runs through robot 1's gap
+    assert 2.5 < along[0, 0] < 3.2  # the way to the point passing robot 1
+    arrive = t + along[0, 0] / world.follower.v_max_mps
+    assert wait[0, 0] == pytest.approx(f.work_end_s[1] - arrive)
+    z0 = f.last_z_m[0]
+    for x, waits in ((5.0, True), (5.3, False)):  # the point nearest robot 1: 1.0 / 0.7 m on
+        f.last_z_m[0] = complex(x, 3.0)
+        assert (jobs.jams.waits(np.array([0]), np.array([1]), t)[0][0, 0] > 0) == waits
+    f.last_z_m[0] = z0  # beside it already (within AHEAD_BLOCK_M along its way): pass_workers
+    grown = world.controller.radius_m + sim.jams.AHEAD_GROW_M
+    z = f.last_z_m
+    way = world.planner.path_around((z[0].real, z[0].imag), (9.0, 3.0), z[[1]], grown)
+    extra_s = float(np.abs(np.diff(way[:, 0] + 1j * way[:, 1])).sum()) - jobs.jams.way_left_m(0)
+    extra_s /= world.follower.v_max_mps
+    assert wait_s + 1.0 < extra_s < 10.0
+
+    def look(work_left_s: float, service=None) -> bool:
+        f.work_end_s[1] = arrive + work_left_s
+        own = jobs.sites.service[0]
+        if service is not None:
+            jobs.sites.service[0] = service
+        jobs.jams.due[0] = True
+        jobs.jams.look_ahead(t)
+        jobs.sites.service[0] = own
+        assert not (jobs.jams.due.any() or jobs.jams.began.any())
+        return not np.array_equal(waypoints(world, 0), before)
+
+    assert not look(wait_s - 0.1)  # it ends before the robot would wait long
+    assert not look(extra_s - 0.1)  # waiting is quicker than the way round
+    assert not look(1000.0, service=jobs.sites.service[1])  # the same site
+    assert f.t_progress_s[0] == clock and f.recoveries[0] == 0
+    assert look(extra_s + 0.1)  # the way round is quicker: round it
+    assert waypoints(world, 0).imag.max() > 6.0 and f.t_progress_s[0] == t

@@ -105,38 +105,38 @@ class Case:
     build: Callable  # (n, control, avoidance, nudge) -> (world, done(world) or None: all arrived)
 
 
-def _circle(n, control, avoidance, nudge):
+def _circle(n, control, avoidance, nudge, **kw):
     starts, goals = circle(n)
-    return swap_world(nudge(starts), goals, (14.0, 14.0), control, avoidance), None
+    return swap_world(nudge(starts), goals, (14.0, 14.0), control, avoidance, **kw), None
 
 
-def _junction(n, control, avoidance, nudge):
+def _junction(n, control, avoidance, nudge, **kw):
     c = np.array([6.0, 6.0])
     starts = c + np.array([[4.0, 0.0], [0.0, 4.0], [-4.0, 0.0], [0.0, -4.0]])
-    return swap_world(nudge(starts), 2.0 * c - starts, (12.0, 12.0), control, avoidance), None
+    return swap_world(nudge(starts), 2.0 * c - starts, (12.0, 12.0), control, avoidance, **kw), None
 
 
-def _corridor(n, control, avoidance, nudge):
+def _corridor(n, control, avoidance, nudge, **kw):
     half = 0.375
     walls = (
         ((4.0, 0.0), (8.0, 0.0), (8.0, 3.0 - half), (4.0, 3.0 - half)),
         ((4.0, 3.0 + half), (8.0, 3.0 + half), (8.0, 6.0), (4.0, 6.0)),
     )
     starts, goals = [(3.5, 3.0), (8.5, 3.0)], [(9.5, 3.0), (2.5, 3.0)]
-    return swap_world(nudge(starts), goals, (12.0, 6.0), control, avoidance, walls), None
+    return swap_world(nudge(starts), goals, (12.0, 6.0), control, avoidance, walls, **kw), None
 
 
-def _parked(n, control, avoidance, nudge):
+def _parked(n, control, avoidance, nudge, **kw):
     parked = [(3.0 + 0.7 * k, 3.6) for k in range(n - 1)]
     starts, goals = [(1.0, 3.0), *parked], [(3.0 + 0.7 * (n - 1) + 1.0, 3.0), *parked]
     width = goals[0][0] + 1.0
-    return swap_world(nudge(starts), goals, (width, 6.0), control, avoidance), None
+    return swap_world(nudge(starts), goals, (width, 6.0), control, avoidance, **kw), None
 
 
-def _site(n, control, avoidance, nudge):
+def _site(n, control, avoidance, nudge, **kw):
     centre = (10.0, 10.0)
     starts, _ = circle(n, 8.0, centre)
-    world = swap_world(nudge(starts), [centre] * n, (20.0, 20.0), control, avoidance)
+    world = swap_world(nudge(starts), [centre] * n, (20.0, 20.0), control, avoidance, **kw)
     world.jobs.exec_time_s[:] = SITE_WORK_S
     worked = np.zeros(n, dtype=bool)
 
@@ -166,16 +166,18 @@ def run_case(
     on_tick=None,
     jitter_m: float = 0.0,
     seed: int = 0,
+    look_ahead: str = "off",
 ) -> dict:
-    """Run hard case ``name`` with ``robots`` robots (the case's default if None).
+    """Run hard case ``name`` with ``robots`` robots (the case's default if None) and
+    ``[spatial] look_ahead`` as given.
 
     ``jitter_m`` > 0 moves every start by a normal draw of that standard deviation (m, per
     coordinate, from ``numpy.random.default_rng(seed)``): the crowd cases are chaotic, and
     whether a run touches must not hang on the exact start (``mrta hardcase --jitter``).
 
     Returns:
-        ``{"case", "robots", "avoidance", "control", "time_s" (inf: not all arrived within
-        ``limit_s``), "still_driving", "robot_touch", "robot_impact", "wall_touch",
+        ``{"case", "robots", "avoidance", "look_ahead", "control", "time_s" (inf: not all
+        arrived within ``limit_s``), "still_driving", "robot_touch", "robot_impact", "wall_touch",
         "wall_impact", "closest_m" (closest two centres, sampled every 0.1 s), "failed",
         "jitter_m", "seed"}``,
         and ``"trajectory"`` (a ``sim.recording.Trajectory``) when ``recorder`` is set.
@@ -201,7 +203,7 @@ def run_case(
         starts = np.asarray(starts, dtype=float)
         return starts + rng.normal(0.0, jitter_m, starts.shape)
 
-    world, done = case.build(n, control, avoidance, nudge)
+    world, done = case.build(n, control, avoidance, nudge, look_ahead=look_ahead)
     rec = None
     if recorder:
         sp = world.spatial
@@ -234,6 +236,7 @@ def run_case(
         "case": name,
         "robots": n,
         "avoidance": avoidance,
+        "look_ahead": look_ahead,
         "control": world.control_kind,
         "time_s": t,
         "still_driving": int((world.fleet.state == DRIVING).sum()),

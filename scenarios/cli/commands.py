@@ -354,6 +354,7 @@ def cmd_hardcase(args) -> int:
                     on_tick=lambda _w: bar.update(),
                     jitter_m=args.jitter,
                     seed=seed,
+                    look_ahead=args.look_ahead,
                 )
             except ValueError as exc:
                 raise UserError(str(exc)) from None
@@ -400,7 +401,8 @@ def hardcase_line(case: str, r: dict, limit_s: float) -> str:
     )
     return (
         f"{case}, {r['robots']} robots, avoidance {r['avoidance']}, "
-        f"{r['control']} control: {when}; robot-robot contacts {r['robot_touch']} touch "
+        + ("look ahead on, " if r.get("look_ahead") == "on" else "")
+        + f"{r['control']} control: {when}; robot-robot contacts {r['robot_touch']} touch "
         f"{r['robot_impact']} impact, robot-wall {r['wall_touch']} touch "
         f"{r['wall_impact']} impact; closest centres {r['closest_m']:.2f} m; "
         f"failed tasks {r['failed']}"

@@ -395,6 +395,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--avoidance", choices=("orca", "none"), default="orca", help="[spatial] avoidance"
     )
     h.add_argument(
+        "--look-ahead",
+        choices=("off", "on"),
+        default="off",
+        help="[spatial] look_ahead: plan round robots at work in the way (default off)",
+    )
+    h.add_argument(
         "--control",
         choices=("auto", "array", "scalar"),
         default="auto",

@@ -158,3 +158,18 @@ def test_cli_jitter_when_no_run_arrives_is_strict_json_and_says_so(capsys):
     assert main([*args, "--no-progress"]) == 0
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert "all arrived in 0;" in last and "mean" not in last
+
+
+def test_with_look_ahead_the_robot_passing_parked_robots_plans_a_wider_berth():
+    """The ten parked robots are at work (1000 s): with ``look_ahead = "on"`` the passing
+    robot plans its way round them, each grown by ``AHEAD_GROW_M``, at its task's start, and
+    so passes farther from them than ORCA alone takes it; both arrive without a contact. The
+    other hard cases do not change their arrival times (README)."""
+    off = run_case("parked")
+    on = run_case("parked", look_ahead="on")
+    assert off["look_ahead"] == "off" and on["look_ahead"] == "on"
+    for r in (off, on):
+        assert np.isfinite(r["time_s"]) and r["robot_touch"] + r["robot_impact"] == 0
+    assert on["closest_m"] > off["closest_m"] + 0.05
+    corridor = run_case("corridor", look_ahead="on")  # beside a robot at work: pass_workers
+    assert corridor["time_s"] == run_case("corridor")["time_s"]

@@ -166,6 +166,8 @@ def test_bundled_files_are_listed_per_folder():
         "experience",
         "faults",
         "history",
+        "look_ahead",
+        "look_ahead_seeds5_9",
         "refusal_frontier",
         "refusal_load",
         "refusal_spatial",

@@ -102,7 +102,7 @@ class Case:
     least: int
     most: int
     limit_s: float
-    build: Callable  # (n, control, avoidance, nudge) -> (world, done(world) or None: all arrived)
+    build: Callable  # (n, control, avoidance, nudge, look_ahead=) -> (world, done(world) or None)
 
 
 def _circle(n, control, avoidance, nudge, **kw):

@@ -83,6 +83,23 @@ def test_resume_at_every_set_boundary_equals_the_straight_run(
         assert json.dumps(resumed, sort_keys=True) == json.dumps(straight, sort_keys=True), after
 
 
+def test_resume_with_look_ahead_equals_the_straight_run(tmp_path, monkeypatch):
+    """``[spatial] look_ahead = "on"`` keeps marks between control periods (robots given a
+    task, robots that began work) that no checkpoint holds: every set ends with them spent,
+    so a resumed run equals the straight one. The rule acts here (the run differs from the
+    same with it off)."""
+    scenario = small_spatial(tmp_path)
+    spec = RunSpec(str(scenario), "market", "distance", 7, (("spatial.look_ahead", "on"),))
+    straight = execute(spec, task_table=True)
+    off = execute(RunSpec(str(scenario), "market", "distance", 7), task_table=True)
+    assert off["spatial"] != straight["spatial"] and off["task_table"] != straight["task_table"]
+    for after in (2, 4):
+        ck = tmp_path / f"ahead{after}.npz"
+        interrupted(spec, ck, after, monkeypatch)
+        resumed = execute(spec, checkpoint=ck, resume=True, task_table=True)
+        assert json.dumps(resumed, sort_keys=True) == json.dumps(straight, sort_keys=True), after
+
+
 def test_resume_with_robot_faults_equals_the_straight_run(tmp_path, monkeypatch):
     """With faults the checkpoint also holds the fault model (its generator included) and the
     path planner marks the robots that stand broken, in the straight and the resumed run."""

@@ -155,11 +155,13 @@ def test_bundled_files_are_listed_per_folder():
         "paper_spatial",
         "scale1000",
         "warehouse",
+        "warehouse_pickface",
         "warehouse_wide",
     ]
     assert bundled_toml() == bundled_names()
     assert bundled_toml("sweeps") == [
         "avoidance",
+        "avoidance_pickface",
         "avoidance_seeds5_9",
         "avoidance_wide",
         "delta_u",
@@ -186,7 +188,10 @@ def test_locate_takes_paths_as_given_and_names_from_the_bundle(tmp_path):
 
 
 def test_unknown_names_list_the_bundle_and_suggest():
-    bundled = "(bundled: large, paper, paper_spatial, scale1000, warehouse, warehouse_wide)"
+    bundled = (
+        "(bundled: large, paper, paper_spatial, scale1000, warehouse, warehouse_pickface,"
+        " warehouse_wide)"
+    )
     with pytest.raises(ScenarioError) as info:
         resolve("nope")
     assert str(info.value) == f"nope: no such scenario file or bundled scenario {bundled}"

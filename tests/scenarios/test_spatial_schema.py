@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from scenarios.loader import ScenarioError, load_scenario, parse_scenario
+from sim.control.orca import MARGIN_M
 from sim.physics import PymunkWorld
 from sim.tasks import Batch
 
-SPATIAL = ["paper_spatial", "warehouse", "warehouse_wide", "large"]
+SPATIAL = ["paper_spatial", "warehouse", "warehouse_wide", "warehouse_pickface", "large"]
 
 
 def doc(name: str = "paper_spatial") -> dict:
@@ -330,3 +331,39 @@ def test_warehouse_wide_differs_from_the_warehouse_only_in_its_cross_aisle():
     shelves = [[[moved.get(x, x), y] for x, y in poly] for poly in polys]
     assert shelves == wide["spatial"].pop("obstacles")
     assert narrow == wide
+
+
+def test_warehouse_pickface_differs_from_the_warehouse_only_in_its_pick_and_restock_sites():
+    """The variant behind ``mrta sweep avoidance_pickface``: every key the same as
+    warehouse.toml except the name, the description and the pick and restock sites, each moved
+    from the middle of its 2 m aisle to 0.5 m from the face of the shelf row below the aisle."""
+    mid, face = doc("warehouse"), doc("warehouse_pickface")
+    for key in ("name", "description"):
+        assert mid["scenario"].pop(key) != face["scenario"].pop(key)
+    shelves = mid["spatial"]["obstacles"][:10]
+    tops = {poly[2][1] for poly in shelves}  # the shelf rows' far faces, y
+    for kind in ("pick", "restock"):
+        sites, moved = mid["spatial"]["sites"].pop(kind), face["spatial"]["sites"].pop(kind)
+        assert len(sites) == len(moved) == 4
+        for (x, y), (fx, fy) in zip(sites, moved, strict=True):
+            assert fx == x and fy == y - 0.5
+            assert y - 1.0 in tops and fy - (y - 1.0) == 0.5  # mid-aisle before, 0.5 m off the face
+    assert mid == face
+
+
+def test_warehouse_pickface_sites_leave_a_lane_beside_a_robot_at_work():
+    """A passing robot's centre keeps ORCA's pair distance from a robot at work and its own
+    radius plus ``MARGIN_M`` from a shelf: beside a robot at work in the middle of a 2 m aisle
+    that leaves a band 0.1 m wide, beside one at a shelf face 0.6 m."""
+    for name, band in (("warehouse", 0.1), ("warehouse_pickface", 0.6)):
+        sp = load_scenario(name).spatial
+        r_eff = sp.drive.radius_m + MARGIN_M
+        shelves = [np.asarray(p) for p in sp.obstacles[:10]]
+        for kind in (0, 1):  # pick, restock: in the aisles between the shelf rows
+            for x, y in sp.sites[kind]:
+                row = [p for p in shelves if p[:, 0].min() <= x <= p[:, 0].max()]
+                above = min(p[:, 1].min() for p in row if p[:, 1].min() > y)
+                below = max(p[:, 1].max() for p in row if p[:, 1].max() < y)
+                assert above - below == 2.0  # a 2 m aisle
+                free = (above - r_eff) - (y + 2.0 * r_eff)
+                assert free == pytest.approx(band), (name, x, y)

@@ -196,7 +196,9 @@ def fig_avoidance(rows: list[dict], others=(), path: Path | None = None):
     against ``"none"`` per allocator (bars, in % of the ``none`` mean, with the standard error
     of the per-seed change), and robot-robot and robot-wall contacts per robot-hour (bars: means
     over seeds; dots: the largest seed's wall rate), each with its issue-15 target as a dashed
-    line. Each bar carries ``gid = "<panel>:<scenario>:<label>"``."""
+    line; the panels of a column share one y range, so that scenarios (``mrta sweep
+    avoidance_layouts``: the warehouse and its variants) compare at a glance. Each bar carries
+    ``gid = "<panel>:<scenario>:<label>"``."""
     from scenarios.experiments.figures import allocator_colour, new_figure, save_figure
 
     scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
@@ -207,7 +209,7 @@ def fig_avoidance(rows: list[dict], others=(), path: Path | None = None):
         ("wall", "robot-wall contacts /robot-h", TARGETS["wall_contacts"][1]),
     )
     fig = new_figure(3.6 * len(panels), 3.2 * len(scenarios))
-    axes = np.atleast_2d(fig.subplots(len(scenarios), len(panels), squeeze=False))
+    axes = np.atleast_2d(fig.subplots(len(scenarios), len(panels), squeeze=False, sharey="col"))
     for i, sc in enumerate(scenarios):
         mine = [r for r in rows if r["scenario"] == sc]
         labels = [_label(r, rows, others) for r in mine]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from scenarios.sweep.avoidance_report import (
@@ -140,3 +141,19 @@ def test_the_figure_draws_each_row_against_its_target(records):
         line.get_ydata()[0] for ax in fig.axes for line in ax.lines if line.get_linestyle() == "--"
     ]
     assert dashed == pytest.approx([-3.0, 10.0, 1.0, 0.5])  # the targets, one per panel
+
+
+def test_the_figure_puts_each_column_on_one_scale(records):
+    """Rows of scenarios are compared column by column (``mrta sweep avoidance_layouts``): each
+    panel of a column has the same y range, here one row losing half its tasks."""
+    halved = [
+        dict(r, scenario="warehouse_wide", tasks_allocated=r["tasks_allocated"] * 0.5)
+        if r["spatial.avoidance"] != "none"
+        else dict(r, scenario="warehouse_wide")
+        for r in records
+    ]
+    fig = fig_avoidance(avoidance_rows(records + halved, PARAMS))
+    axes = np.reshape(fig.axes, (2, 4))
+    assert axes[1, 0].get_ylim()[0] < -40.0  # the halved row's bars
+    for column in axes.T:
+        assert column[0].get_ylim() == column[1].get_ylim()

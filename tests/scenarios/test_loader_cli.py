@@ -161,7 +161,7 @@ def test_bundled_files_are_listed_per_folder():
     assert bundled_toml() == bundled_names()
     assert bundled_toml("sweeps") == [
         "avoidance",
-        "avoidance_pickface",
+        "avoidance_layouts",
         "avoidance_seeds5_9",
         "avoidance_wide",
         "delta_u",

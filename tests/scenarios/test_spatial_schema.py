@@ -334,7 +334,7 @@ def test_warehouse_wide_differs_from_the_warehouse_only_in_its_cross_aisle():
 
 
 def test_warehouse_pickface_differs_from_the_warehouse_only_in_its_pick_and_restock_sites():
-    """The variant behind ``mrta sweep avoidance_pickface``: every key the same as
+    """A variant in ``mrta sweep avoidance_layouts``: every key the same as
     warehouse.toml except the name, the description and the pick and restock sites, each moved
     from the middle of its 2 m aisle to 0.5 m from the face of the shelf row below the aisle."""
     mid, face = doc("warehouse"), doc("warehouse_pickface")

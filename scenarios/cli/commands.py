@@ -30,14 +30,34 @@ def warn_few_seeds(seeds: list[int]) -> None:
         )
 
 
+def _is_sweep(name_or_path: str) -> bool:
+    """A sweep file (a top-level ``[sweep]`` table and no ``[scenario]``), or the name of a
+    bundled sweep that is not a bundled scenario's."""
+    from scenarios.loader import locate, read_toml
+
+    path = locate(name_or_path)
+    if path is not None and path.is_file():
+        doc, _ = read_toml(path)
+        return "sweep" in doc and "scenario" not in doc
+    return path is None and locate(name_or_path, "sweeps") is not None
+
+
 def cmd_validate(args) -> int:
     from scenarios.loader import bundled_names, load_scenario
+    from scenarios.sweep.spec import load_sweep
 
     if args.list or not args.files:
         for name in bundled_names():
             print(name)
         return 0
     for f in args.files:
+        if _is_sweep(f):
+            sw = load_sweep(f)
+            print(
+                f"{sw.source}: ok: sweep {sw.name!r}, {len(sw.runs)} runs "
+                f"({len(sw.runs) // len(sw.seeds)} combinations x {len(sw.seeds)} seeds)"
+            )
+            continue
         sc = load_scenario(f)
         spatial = "spatial" if sc.spatial else "abstract"
         print(

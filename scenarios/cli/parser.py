@@ -187,8 +187,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    v = sub.add_parser("validate", help="check scenario files and print a short description")
-    v.add_argument("files", nargs="*", help="scenario names or TOML paths")
+    v = sub.add_parser(
+        "validate",
+        help="check scenario (or sweep) files and print a short description",
+        description="Check scenario files, or sweep files (a [sweep] table), without running "
+        "anything: one line each, 'ok' with what the file holds, or the first problem found "
+        "(exit 2).",
+    )
+    v.add_argument("files", nargs="*", help="scenario or sweep names, or TOML paths")
     v.add_argument("--list", action="store_true", help="list the bundled scenarios")
 
     r = sub.add_parser(

@@ -101,6 +101,29 @@ def test_missing_file(capsys, tmp_path):
     assert code == 2 and "nope.toml: file not found" in err
 
 
+def test_validate_checks_sweep_files_by_name_and_by_path(capsys):
+    """10 seeds x 3 scenarios x 3 allocators x 1 cost x 2 avoidance settings; by path the
+    same file as the bundled name, and a scenario beside it still reads as a scenario."""
+    code, out, _ = run_cli(capsys, "validate", "avoidance_layouts")
+    assert code == 0
+    assert out.endswith(": ok: sweep 'avoidance_layouts', 180 runs (18 combinations x 10 seeds)\n")
+    path = locate("avoidance", "sweeps")
+    code, out, _ = run_cli(capsys, "validate", str(path), "warehouse")
+    first, second = out.splitlines()
+    assert code == 0
+    assert first == f"{path}: ok: sweep 'avoidance', 60 runs (12 combinations x 5 seeds)"
+    described = "ok: 'warehouse', 10 robots, 4 task types, 30 sets x 18 rounds, spatial"
+    assert second.endswith(f": {described}")
+
+
+def test_validate_names_a_bad_sweep_file_s_problem_in_one_line(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text('[sweep]\nscenarios = ["warehouse"]\nallocators = ["markt"]\nseeds = 2\n')
+    code, out, err = run_cli(capsys, "validate", str(path))
+    assert code == 2 and out == "" and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"mrta: error: {path}: sweep.allocators[0]: unknown allocator 'markt'")
+
+
 def test_unknown_bundled_name(capsys):
     code, _, err = run_cli(capsys, "reproduce", "--scenario", "papr")
     assert code == 2 and "did you mean 'paper'?" in err
@@ -163,6 +186,7 @@ def test_bundled_files_are_listed_per_folder():
         "avoidance",
         "avoidance_layouts",
         "avoidance_seeds5_9",
+        "avoidance_warehouse30",
         "avoidance_wide",
         "delta_u",
         "experience",

@@ -341,7 +341,7 @@ def test_warehouse_pickface_differs_from_the_warehouse_only_in_its_pick_and_rest
     for key in ("name", "description"):
         assert mid["scenario"].pop(key) != face["scenario"].pop(key)
     shelves = mid["spatial"]["obstacles"][:10]
-    tops = {poly[2][1] for poly in shelves}  # the shelf rows' far faces, y
+    tops = {poly[2][1] for poly in shelves}  # the shelf rows' upper faces, y
     for kind in ("pick", "restock"):
         sites, moved = mid["spatial"]["sites"].pop(kind), face["spatial"]["sites"].pop(kind)
         assert len(sites) == len(moved) == 4

@@ -40,6 +40,15 @@ def space_with(*robots, wall_x=None):
     return space, monitor, bodies
 
 
+def step_until(monitor, done, limit=600):
+    """Step until ``done(monitor)``; fail after ``limit`` steps (10 s) rather than hang."""
+    for _ in range(limit):
+        if done(monitor):
+            return
+        monitor.run(1, DT)
+    pytest.fail(f"not reached in {limit} steps: touching {monitor.touching}")
+
+
 def counts(monitor):
     return (monitor.robot_hits, monitor.robot_impacts, monitor.wall_hits, monitor.wall_impacts)
 
@@ -98,15 +107,13 @@ def test_every_contact_begun_counts_once_and_iterations_follow_the_contacts():
     assert space.iterations == FREE_ITERATIONS
     seen = []
     for _ in range(2):
-        while not monitor.touching:
-            monitor.run(1, DT)
+        step_until(monitor, lambda m: m.touching)
         assert space.iterations == CONTACT_ITERATIONS
         touching_steps = monitor.steps_touching
         monitor.run(5, DT)  # pressed together: still the one contact
         assert monitor.touching == 1 and monitor.steps_touching == touching_steps + 5
         a.velocity, b.velocity = (-0.5, 0.0), (0.5, 0.0)
-        while monitor.touching:
-            monitor.run(1, DT)
+        step_until(monitor, lambda m: not m.touching)
         assert space.iterations == FREE_ITERATIONS
         seen.append(counts(monitor))
         a.velocity, b.velocity = (0.2, 0.0), (-0.2, 0.0)
@@ -119,15 +126,12 @@ def test_two_contacts_at_once_keep_ten_iterations_until_both_separate():
     space, monitor, (a, _b, c) = space_with(
         (-0.6, 0.0, 0.1, 0.0), (0.0, 0.0, 0.0, 0.0), (0.6, 0.0, -0.1, 0.0)
     )
-    while monitor.touching < 2:
-        monitor.run(1, DT)
+    step_until(monitor, lambda m: m.touching >= 2)
     a.velocity = (-0.5, 0.0)
-    while monitor.touching == 2:
-        monitor.run(1, DT)
+    step_until(monitor, lambda m: m.touching != 2)
     assert monitor.touching == 1 and space.iterations == CONTACT_ITERATIONS
     c.velocity = (0.5, 0.0)
-    while monitor.touching:
-        monitor.run(1, DT)
+    step_until(monitor, lambda m: not m.touching)
     assert space.iterations == FREE_ITERATIONS and monitor.robot_hits == 2
 
 
@@ -167,8 +171,7 @@ def test_many_contacts_at_once_read_their_depths_through_numpy_alike():
 
 def test_counts_survive_a_checkpoint_round_trip_and_touching_starts_at_zero():
     _, monitor, _ = space_with((0.0, 0.0, 0.2, 0.0), (0.6, 0.0, -0.2, 0.0), wall_x=-0.4)
-    while not monitor.touching:
-        monitor.run(1, DT)
+    step_until(monitor, lambda m: m.touching)
     monitor.run(3, DT)
     saved = monitor.state_arrays()
     assert {k: int(v) for k, v in saved.items() if k != "max_overlap_m"} == {

@@ -8,7 +8,9 @@ Run after ``mutmut run`` from the project root::
 Score = killed / (killed + survived), where mutants listed in ``equivalent.toml`` beside this
 file (a mutant that no test can tell from the original, each with its one-line reason) are
 counted apart and left out. Timeouts are counted apart too (a mutant that makes the code hang
-is caught, but not by an assertion); mutants not run yet are shown as "not run".
+is caught, but not by an assertion); mutants not run yet are shown as "not run". A survivor
+that the golden runs kill (``tests/mutation/golden.py``, run after mutmut: mutmut cannot select
+the golden tests) counts as killed, and the "by golden" column says how many of them.
 """
 
 from __future__ import annotations
@@ -39,13 +41,26 @@ def results(root: Path = Path("mutants")) -> dict[str, dict[str, int | None]]:
     return out
 
 
-def tally(codes: dict[str, int | None], equiv: dict[str, str]) -> Counter:
+def golden_kills(root: Path = Path("mutants")) -> set[str]:
+    """Survivors that the golden runs kill (``tests/mutation/golden.py``: mutmut cannot select
+    those tests, which run their cases in a child Python), or whose run they crash."""
+    path = root / "golden-kills.json"
+    if not path.exists():
+        return set()
+    rows = json.loads(path.read_text())
+    return {name for name, row in rows.items() if row["result"] in ("killed", "crashed")}
+
+
+def tally(codes: dict[str, int | None], equiv: dict[str, str], golden=frozenset()) -> Counter:
     c = Counter()
     for name, code in codes.items():
         if name in equiv:
             c["equivalent"] += 1
         elif code in KILLED:
             c["killed"] += 1
+        elif code in SURVIVED and name in golden:
+            c["killed"] += 1
+            c["by golden"] += 1
         elif code in SURVIVED:
             c["survived"] += 1
         elif code in TIMEOUT:
@@ -75,17 +90,17 @@ def stale(runs: dict[str, dict[str, int | None]], equiv: dict[str, str]) -> list
 
 
 def main(argv: list[str]) -> int:
-    equiv = equivalent()
-    cols = ("killed", "survived", "equivalent", "timeout", "not run", "other")
+    equiv, golden = equivalent(), golden_kills()
+    cols = ("killed", "by golden", "survived", "equivalent", "timeout", "not run", "other")
     print(f"{'module':30s} " + " ".join(f"{c:>10s}" for c in cols) + "      score")
     for module, codes in results().items():
-        c = tally(codes, equiv)
+        c = tally(codes, equiv, golden)
         decided = c["killed"] + c["survived"]
         score = f"{100 * c['killed'] / decided:6.1f}%" if decided else "     -"
         print(f"{module:30s} " + " ".join(f"{c[k]:10d}" for k in cols) + f"    {score}")
         if "--survivors" in argv:
             for name, code in codes.items():
-                if code in SURVIVED and name not in equiv:
+                if code in SURVIVED and name not in equiv and name not in golden:
                     print(f"    survived: {name}")
     for line in stale(results(), equiv):
         print(f"equivalent.toml: {line}")

@@ -1,0 +1,71 @@
+"""The mutation-testing scripts (``tests/mutation/score.py``, ``tests/mutation/golden.py``) on a
+hand-made ``mutants/`` folder: which survivors the golden check takes, and how the score
+counts what it found."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+HERE = Path(__file__).parent / "mutation"
+
+
+def load(name: str):
+    spec = importlib.util.spec_from_file_location(f"mutation_{name}", HERE / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def fake_mutants(root: Path) -> None:
+    meta = root / "sim" / "control" / "orca.py.meta"
+    meta.parent.mkdir(parents=True)
+    codes = {
+        "sim.control.orca.x_solve__mutmut_1": 1,  # killed
+        "sim.control.orca.x_solve__mutmut_2": 0,  # survived
+        "sim.control.orca.x_solve__mutmut_3": 0,  # survived
+        "sim.control.orca.x_command__mutmut_1": 0,  # survived
+        "sim.control.orca.x_command__mutmut_2": None,  # not run
+    }
+    hashes = {"x_solve": "aaa", "x_command": "bbb"}
+    meta.write_text(json.dumps({"exit_code_by_key": codes, "hash_by_function_name": hashes}))
+
+
+def test_golden_check_takes_the_survivors_matching_with_their_function_s_hash(
+    tmp_path, monkeypatch
+):
+    golden = load("golden")
+    fake_mutants(tmp_path / "mutants")
+    monkeypatch.chdir(tmp_path)
+    assert golden.survivors(["*"]) == {
+        "sim.control.orca.x_solve__mutmut_2": "aaa",
+        "sim.control.orca.x_solve__mutmut_3": "aaa",
+        "sim.control.orca.x_command__mutmut_1": "bbb",
+    }
+    assert golden.survivors(["sim.control.orca.x_command*"]) == {
+        "sim.control.orca.x_command__mutmut_1": "bbb"
+    }
+    assert golden.survivors(["sim.contacts.*"]) == {}
+
+
+def test_the_score_counts_survivors_the_golden_runs_kill_as_killed(tmp_path, monkeypatch):
+    score = load("score")
+    fake_mutants(tmp_path / "mutants")
+    (tmp_path / "mutants" / "golden-kills.json").write_text(
+        json.dumps(
+            {
+                "sim.control.orca.x_solve__mutmut_2": {"result": "killed", "hash": "aaa"},
+                "sim.control.orca.x_solve__mutmut_3": {"result": "survived", "hash": "aaa"},
+                "sim.control.orca.x_command__mutmut_1": {"result": "crashed", "hash": "bbb"},
+            }
+        )
+    )
+    monkeypatch.chdir(tmp_path)
+    golden = score.golden_kills()
+    assert golden == {"sim.control.orca.x_solve__mutmut_2", "sim.control.orca.x_command__mutmut_1"}
+    (codes,) = score.results().values()
+    c = score.tally(codes, {}, golden)
+    assert (c["killed"], c["by golden"], c["survived"], c["not run"]) == (3, 2, 1, 1)
+    c = score.tally(codes, {"sim.control.orca.x_solve__mutmut_3": "why"}, golden)
+    assert (c["killed"], c["survived"], c["equivalent"]) == (3, 0, 1)

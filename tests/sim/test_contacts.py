@@ -187,3 +187,16 @@ def test_counts_survive_a_checkpoint_round_trip_and_touching_starts_at_zero():
     fresh.restore_arrays(saved)
     assert counts(fresh) == counts(monitor) and fresh.steps_touching == 4
     assert fresh.max_overlap_m == monitor.max_overlap_m and fresh.touching == 0
+
+
+def test_each_wall_contact_counts_and_a_touch_after_an_impact_stays_an_impact_counted():
+    """A robot hits a wall at 0.5 m/s, is pulled off, then touches it at 0.1 m/s: two wall
+    contacts begun, one of them an impact, and no robot contact."""
+    _, monitor, (a,) = space_with((0.0, 0.0, 0.5, 0.0), wall_x=0.5)
+    step_until(monitor, lambda m: m.touching)
+    a.velocity = (-0.5, 0.0)
+    step_until(monitor, lambda m: not m.touching)
+    assert counts(monitor) == (0, 0, 1, 1)
+    a.velocity = (0.1, 0.0)
+    step_until(monitor, lambda m: m.touching)
+    assert counts(monitor) == (0, 0, 2, 1)

@@ -223,31 +223,32 @@ def test_neighbour_table_is_none_when_no_robot_has_a_neighbour_in_range():
     assert orca.neighbour_table(np.zeros(4, dtype=complex), np.arange(0), reach) is None
 
 
-def test_orca_range_is_where_a_head_on_pair_at_top_speed_starts_to_bind():
+@pytest.mark.parametrize("v_max", [1.0, 1.2])
+def test_orca_range_is_where_a_head_on_pair_at_top_speed_starts_to_bind(v_max):
     """``orca_range_m`` is the centre distance within which two robots closing head on at the
     top speed each collide within the horizon: just inside it their half-planes bind (the
     law acts, at 3 m as at any distance below the range), just outside they do not, and
     nothing beyond it is looked at."""
-    reach = orca_range_m(RADIUS, V_MAX)
-    assert reach == pytest.approx(COMBINED + 2 * V_MAX * TAU_S)
+    reach = orca_range_m(RADIUS, v_max)
+    assert reach == pytest.approx(COMBINED + 2 * v_max * TAU_S)
     for d, binds in ((reach * (1 - 1e-6), True), (reach * (1 + 1e-6), False), (3.0, True)):
         n, c = half_planes(
             np.array([d + 0j]),
-            np.array([2 * V_MAX + 0j]),
-            np.array([V_MAX + 0j]),
+            np.array([2 * v_max + 0j]),
+            np.array([v_max + 0j]),
             np.array([0.5]),
             COMBINED,
             1 / TAU_S,
             1 / DT,
         )
-        assert (c[0] - (V_MAX * n[0].conjugate()).real > 1e-9) == binds, d
+        assert (c[0] - (v_max * n[0].conjugate()).real > 1e-9) == binds, d
         z = np.array([0j, d + 0j])
-        vel = np.array([V_MAX + 0j, -V_MAX + 0j])
-        args = (z, vel, vel / V_MAX, np.arange(2), vel, np.full(2, V_MAX), np.ones(2, bool))
-        out = orca.avoid(*args, RADIUS, V_MAX, DT, lambda p: np.full(len(p), np.inf + 0j))
+        vel = np.array([v_max + 0j, -v_max + 0j])
+        args = (z, vel, vel / v_max, np.arange(2), vel, np.full(2, v_max), np.ones(2, bool))
+        out = orca.avoid(*args, RADIUS, v_max, DT, lambda p: np.full(len(p), np.inf + 0j))
         assert (out is not None) == binds, d
         if binds:
-            assert out[0].tolist() == [0, 1] and (out[1] < V_MAX).all()
+            assert out[0].tolist() == [0, 1] and (out[1] < v_max).all()
 
 
 def test_forward_speed_honours_lines_that_ask_for_a_least_forward_speed():

@@ -203,6 +203,61 @@ def test_staged_solve_matches_the_enumeration_on_random_programs():
         assert np.array_equal(orca.solve_enumerated(normal, offset, pref, 1.0), want)
 
 
+def one_line_rows(normal, offset, pref, v_max):
+    """Rows whose optimum the staged solve finds without enumerating, by the docstring's
+    argument: the preferred velocity on the speed disc keeps every line, or for some line it
+    breaks, the point of that line inside the disc nearest the preferred velocity (its
+    projection, or the nearer end of the line's chord of the disc) keeps every line."""
+    out = []
+    for r in range(len(pref)):
+        n, c, p = normal[r], offset[r], pref[r]
+        u = p * min(1.0, v_max / max(abs(p), 1e-12))
+        broken = c - (u * n.conj()).real > 1e-9
+        if not broken.any():
+            out.append(r)
+            continue
+        for j in broken.nonzero()[0]:
+            q = p + (c[j] - (p * n[j].conjugate()).real) * n[j]
+            if abs(q) > v_max * (1 + 1e-9):
+                half = np.sqrt(max(v_max * v_max - c[j] * c[j], 0.0))
+                ends = (c[j] * n[j] + half * 1j * n[j], c[j] * n[j] - half * 1j * n[j])
+                q = min(ends, key=lambda e: abs(e - p))
+            keeps = (c - (q * n.conj()).real).max() <= 1e-9 and abs(q) <= v_max * (1 + 1e-9)
+            if keeps:
+                out.append(r)
+                break
+    return out
+
+
+@pytest.mark.parametrize("v_max", [1.0, 1.5])
+def test_the_staged_solve_enumerates_only_rows_no_single_line_answers(monkeypatch, v_max):
+    """The staged solve is the enumeration's answer for every row (at two top speeds), and it
+    hands to the enumeration exactly the rows that neither the preferred velocity nor one
+    line's nearest point answers: a stage that found less would give the same velocities,
+    only slower, and no comparison of results sees that."""
+    rng = np.random.default_rng(17)
+    n_rows, lines = 3000, 4
+    normal = np.exp(1j * rng.uniform(0, 2 * np.pi, (n_rows, lines)))
+    offset = rng.uniform(-1.2, 0.8, (n_rows, lines)) * v_max
+    offset[rng.random((n_rows, lines)) < 0.2] = -_BIG
+    pref = rng.uniform(0, 1.5, n_rows) * v_max * np.exp(1j * rng.uniform(0, 2 * np.pi, n_rows))
+    sent = []
+    inner = orca.solve_enumerated
+
+    def spy(n, c, p, v, pool=None):
+        if pool is not None and pool.ndim == 2:  # the first call: each row on its own
+            sent.extend(p.tolist())
+        return inner(n, c, p, v, pool=pool)
+
+    monkeypatch.setattr(orca, "solve_enumerated", spy)
+    got = orca.solve(normal, offset, pref, v_max)
+    assert np.array_equal(got, solve_reference(normal, offset, pref, v_max))
+    staged = set(one_line_rows(normal, offset, pref, v_max))
+    enumerated = [r for r in range(n_rows) if r not in staged]
+    assert sent == pref[enumerated].tolist()
+    assert 0.1 * n_rows < len(enumerated) < 0.9 * n_rows  # both kinds, many times
+
+
 @pytest.mark.parametrize("m", [2, 3, 10, 24])
 @pytest.mark.parametrize("lanes_on", [True, False])
 def test_avoid_and_avoid_small_match_the_reference_on_random_scenes(m, lanes_on):
@@ -241,10 +296,15 @@ def test_the_screen_skips_exactly_robots_with_no_binding_half_plane(m):
 def test_avoid_small_hands_ties_to_the_law():
     """Robots on a circle and in a square grid: neighbours at the same distance, where Python's
     and numpy's rounding could order them differently, are left to ``avoid`` (``binding``
-    returns None) and the commands stay the same bit for bit."""
+    returns None) and the commands stay the same bit for bit, with the lane half-planes
+    too (narrow lanes that bind change the commands: the law is handed them)."""
     n = 8
     z = 2.0 * np.exp(2j * np.pi * np.arange(n) / n) + (3 + 3j)
     grid = (np.arange(9) % 3) + 1j * (np.arange(9) // 3) + (1 + 1j)
+
+    def narrow(pts, idx):  # every robot in a lane along its heading, 0.02 m room each side
+        return 1j * h[idx], np.full(len(idx), 0.02), np.full(len(idx), 0.02)
+
     for pts in (z, grid):
         m = len(pts)
         h = np.exp(1j * np.angle((3 + 3j) - pts))
@@ -255,6 +315,10 @@ def test_avoid_small_hands_ties_to_the_law():
         want = avoid_reference(*args, to_obstacle)
         assert want is not None
         assert same(orca_small.avoid_small(*args, to_obstacle), want)
+        wall = lambda p: np.full(len(p), 0.5 + 0j)  # noqa: E731  an obstacle 0.5 m off
+        laned = avoid_reference(*args, wall, narrow)
+        assert not same(laned, avoid_reference(*args, wall))  # the lanes bind here
+        assert same(orca_small.avoid_small(*args, wall, narrow), laned)
 
 
 def test_the_bench_times_avoidance_inside_the_loop():

@@ -271,3 +271,28 @@ def test_forward_speed_honours_lines_that_ask_for_a_least_forward_speed():
     assert forward_speed(*floor, shallow, np.array([0.0]), 1.0)[0] == pytest.approx(0.01 / a)
     got = forward_speed(*floor, shallow, np.array([0.0]), 1.0, 0.005)[0]
     assert got == pytest.approx(0.005 / a)
+
+
+def test_the_wall_screen_measures_the_way_moved_in_the_plane():
+    """``near_walls`` keeps each robot's distance to the nearest obstacle with where it was
+    measured, and passes a robot over while that distance less the way moved since stays
+    beyond reach. The way moved is a distance in the plane: a robot measured 3 m from the
+    wall at (0, 5) and now at (0.1, 0), 0.3 m from it, must be looked at again; one that
+    moved 0.4 m along the wall is not (the screen asks for no distance: it saves the query)."""
+    from sim.control.avoidance import near_walls
+
+    class Follower:
+        asked = 0
+
+        def to_obstacle(self, pts):
+            self.asked += len(pts)
+            return np.where(pts.imag < 1.0, -0.3j, -3.0j) + 0 * pts  # a wall along y = -0.3
+
+    fol = Follower()
+    rows, v = np.array([0]), np.array([0.5])
+    assert near_walls(fol, np.array([5.0j]), rows, v, RADIUS).tolist() == []  # 3 m away
+    assert fol.asked == 1
+    assert near_walls(fol, np.array([5.0j + 0.4]), rows, v, RADIUS).tolist() == []  # moved 0.4
+    assert fol.asked == 1  # passed over without a look
+    assert near_walls(fol, np.array([0.1 + 0j]), rows, v, RADIUS).tolist() == [0]
+    assert fol.asked == 2

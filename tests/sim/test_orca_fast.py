@@ -365,3 +365,21 @@ def test_the_small_team_path_reads_the_law_s_knobs_where_the_law_does(monkeypatc
     monkeypatch.setattr(orca, "MARGIN_M", 0.08)
     edited = run_all()
     assert sum(not same(a, b) for a, b in zip(edited, default, strict=True)) > 10
+
+
+def test_an_infeasible_program_takes_the_least_violating_velocity_of_the_whole_call():
+    """Row 1 asks for u.x >= 0.5 and u.x <= -0.5: no velocity keeps both, and the least
+    violating ones (0.5 m/s over) are those with u.x = 0. Its own candidates have one (its
+    preferred velocity, 0.3 m/s north, and zero), but the law takes, as the enumeration over
+    the whole call does, the first such candidate of the call's pool: row 0's preferred
+    velocity, 0.7 m/s north. Row 0's program is feasible and keeps its own answer."""
+    normal = np.array([[1.0 + 0j, -1.0 + 0j], [1.0 + 0j, -1.0 + 0j]])
+    offset = np.array([[-_BIG, -_BIG], [0.5, 0.5]])
+    pref = np.array([0.7j, 0.3j])
+    want = solve_reference(normal, offset, pref, 1.0)
+    assert want.tolist() == [0.7j, 0.7j]
+    assert orca.solve(normal, offset, pref, 1.0).tolist() == want.tolist()
+    tilted = np.exp(0.3j)  # the same with lines turned: violations then depend on both axes
+    got = orca.solve(normal * tilted, offset, pref * tilted, 1.0)
+    assert np.array_equal(got, solve_reference(normal * tilted, offset, pref * tilted, 1.0))
+    assert got[1] == pytest.approx(0.7j * tilted)

@@ -24,8 +24,6 @@ from __future__ import annotations
 import argparse
 import fnmatch
 import json
-import os
-import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -55,29 +53,20 @@ def load() -> dict[str, dict[str, str]]:
 def check(name: str, cases: list[str]) -> str:
     """Run the golden cases with mutant ``name`` active; "killed" if any number or trajectory
     differs from golden.json, "crashed" if the child failed, else "survived"."""
-    script = (
-        "import json, sys\n"
-        "from tests.golden.cases import GOLDEN, compute_portable\n"
-        "from tests.test_golden import canonical\n"
-        "want = json.loads(GOLDEN.read_text())\n"
-        "names = sys.argv[1:]\n"
-        "got = compute_portable(names)\n"
-        "same = all(got[n].get('trajectory') == want[n].get('trajectory') and "
-        "canonical(got[n]['summary']) == canonical(want[n]['summary']) for n in names)\n"
-        "print('same' if same else 'differs')\n"
-    )
-    env = {**os.environ, "MUTANT_UNDER_TEST": name, "PYTHONPATH": str(MUTANTS.resolve())}
-    child = subprocess.run(
-        [sys.executable, "-c", script, *cases],
-        cwd=MUTANTS,
-        env=env,
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if child.returncode:
+    from tests.golden.cases import GOLDEN, compute_portable  # the copy in mutants/ (main)
+    from tests.test_golden import canonical
+
+    want = json.loads(GOLDEN.read_text())
+    try:
+        got = compute_portable(cases, env={"MUTANT_UNDER_TEST": name})
+    except RuntimeError:
         return "crashed"  # the mutant broke the run: caught, though not by a comparison
-    return "survived" if child.stdout.strip().endswith("same") else "killed"
+    same = all(
+        got[n].get("trajectory") == want[n].get("trajectory")
+        and canonical(got[n]["summary"]) == canonical(want[n]["summary"])
+        for n in cases
+    )
+    return "survived" if same else "killed"
 
 
 def main(argv: list[str]) -> int:

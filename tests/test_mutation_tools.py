@@ -64,6 +64,10 @@ def test_the_score_counts_survivors_the_golden_runs_kill_as_killed(tmp_path, mon
     monkeypatch.chdir(tmp_path)
     golden = score.golden_kills()
     assert golden == {"sim.control.orca.x_solve__mutmut_2", "sim.control.orca.x_command__mutmut_1"}
+    kills = json.loads((tmp_path / "mutants" / "golden-kills.json").read_text())
+    kills["sim.control.orca.x_command__mutmut_1"]["hash"] = "old"  # the function changed since
+    (tmp_path / "mutants" / "golden-kills.json").write_text(json.dumps(kills))
+    assert score.golden_kills() == {"sim.control.orca.x_solve__mutmut_2"}
     (codes,) = score.results().values()
     c = score.tally(codes, {}, golden)
     assert (c["killed"], c["by golden"], c["survived"], c["not run"]) == (3, 2, 1, 1)

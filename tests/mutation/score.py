@@ -43,12 +43,24 @@ def results(root: Path = Path("mutants")) -> dict[str, dict[str, int | None]]:
 
 def golden_kills(root: Path = Path("mutants")) -> set[str]:
     """Survivors that the golden runs kill (``tests/mutation/golden.py``: mutmut cannot select
-    those tests, which run their cases in a child Python), or whose run they crash."""
+    those tests, which run their cases in a child Python), or whose run they crash; only
+    results for the function as mutmut last generated it (its hash unchanged)."""
     path = root / "golden-kills.json"
     if not path.exists():
         return set()
+    hashes = {}
+    for meta in root.rglob("*.py.meta"):
+        doc = json.loads(meta.read_text())
+        module = str(meta.relative_to(root)).removesuffix(".py.meta").replace("/", ".")
+        for fn, digest in doc.get("hash_by_function_name", {}).items():
+            hashes[f"{module}.{fn}"] = digest
     rows = json.loads(path.read_text())
-    return {name for name, row in rows.items() if row["result"] in ("killed", "crashed")}
+    return {
+        name
+        for name, row in rows.items()
+        if row["result"] in ("killed", "crashed")
+        and hashes.get(name.rsplit("__mutmut_", 1)[0]) == row["hash"]
+    }
 
 
 def tally(codes: dict[str, int | None], equiv: dict[str, str], golden=frozenset()) -> Counter:

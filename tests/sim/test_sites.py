@@ -85,8 +85,9 @@ def test_a_checkpoint_from_before_site_queues_restores_nobody_queued():
     s.restore_arrays({"slotted": np.array([False, True, False])})
     assert s.slotted.tolist() == [False, True, False]
     assert s.service.dtype == complex and np.array_equal(s.service, f.site)
-    assert s.admitted.dtype == bool and not s.admitted.any()
-    assert s.holding.dtype == bool and not s.holding.any()
+    for name in ("admitted", "holding"):
+        got = getattr(s, name)
+        assert got.dtype == bool and got.tolist() == [False] * 3, name
     assert s.hold_since_s.dtype == float and s.hold_since_s.tolist() == [np.inf] * 3
     s.queue(at(w, 3.0))  # and the queue runs on them
 

@@ -230,17 +230,10 @@ TWO_GAPS = [  # a wall across x = 10 with 1 m gaps at y = 4.5..5.5 and y = 6.5..
 
 def slow_world(starts, obstacles, v_max_mps: float):
     """``orca_world`` with robots whose top speed is ``v_max_mps``."""
-    from sim.physics import PymunkWorld
-    from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
-    from tests.sim.test_jobs import EXEC_S
+    from sim.scenario import DriveSpec
 
     drive = DriveSpec(max_wheel_speed_radps=v_max_mps / DriveSpec().wheel_radius_m)
-    sp = SpatialSpec(20.0, 10.0, tuple(obstacles), (tuple(starts),) * 2, drive, avoidance="orca")
-    robots = tuple(RobotSpec(f"R{j + 1}", (0, 1), xy) for j, xy in enumerate(starts))
-    scn = Scenario("t", ("A", "B"), robots, ((1.0, 1.0),) * len(robots), EXEC_S, spatial=sp)
-    world = PymunkWorld(scn)
-    world.reset(np.random.default_rng(0))
-    return world
+    return orca_world(starts, obstacles=obstacles, drive=drive)
 
 
 @pytest.mark.parametrize("spare_s", [0.05, -0.05])

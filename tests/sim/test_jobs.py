@@ -35,10 +35,14 @@ ROOM = [  # a closed box round (15, 5): a site inside it has no path from outsid
 ]
 
 
-def make_world(starts, obstacles=(), control="scalar", seed=0, **spatial) -> PymunkWorld:
-    """A 20 m x 10 m world with two task types (2 s and 5 s of work) every robot can do."""
+def make_world(
+    starts, obstacles=(), control="scalar", seed=0, drive=None, **spatial
+) -> PymunkWorld:
+    """A 20 m x 10 m world with two task types (2 s and 5 s of work) every robot can do
+    (``drive``: the default ``DriveSpec`` unless given)."""
     sites = (tuple(starts), tuple(starts))
-    sp = SpatialSpec(20.0, 10.0, tuple(obstacles), sites, DriveSpec(), **spatial)
+    drive = DriveSpec() if drive is None else drive
+    sp = SpatialSpec(20.0, 10.0, tuple(obstacles), sites, drive, **spatial)
     robots = tuple(RobotSpec(f"R{j + 1}", (0, 1), tuple(xy)) for j, xy in enumerate(starts))
     scn = Scenario("t", ("A", "B"), robots, ((1.0, 1.0),) * len(robots), EXEC_S, spatial=sp)
     world = PymunkWorld(scn, control=control)

@@ -236,8 +236,10 @@ def test_start_work_stops_the_robots_and_sets_the_end_of_their_work():
     v, wz = np.array([1.0, 1.2, 1.4]), np.array([0.1, 0.2, 0.3])
     sch.next_end_s = 100.0
     t = at(w, 4.0)
+    w.jobs.jams.began[:] = False
     w.jobs.start_work([1], v, wz, t)
     assert f.state.tolist() == [DRIVING, WORKING, DRIVING]
+    assert w.jobs.jams.began.tolist() == [False, True, False]  # ways may pass it (look_ahead)
     assert f.work_end_s[1] == t + 5.0
     assert f.t_progress_s[1] == np.inf and f.t_progress_s[0] == 0.0
     assert (v.tolist(), wz.tolist()) == ([1.0, 0.0, 1.4], [0.1, 0.0, 0.3])
@@ -470,6 +472,38 @@ def test_robot_blocked_by_one_at_long_work_goes_round_it():
     assert abs(path[1] - (3 + 6j)) < 1e-9  # DETOUR_M to the left of robot 1 (heading +x)
 
 
+def test_the_way_round_a_standing_robot_passes_it_to_the_side_of_the_heading():
+    """Heading 45 degrees (up and right) with robot 1 straight right of it: the detour point
+    is DETOUR_M from robot 1 to the left of that heading, up and left of robot 1."""
+    w = make_world([(2.0, 5.0), (3.0, 5.0), (8.0, 9.0)], avoidance="none")
+    give(w, [0], [(12.0, 5.0)])
+    t = at(w, 40.0)
+    blocked_pair(w, 0.85, WORKING, t + TIMEOUT + 0.5)
+    w.motors.bodies[0].angle = np.pi / 4
+    w.jobs.recover(0, t)
+    assert abs(waypoints(w, 0)[1] - (3 + 5j + 1j * np.exp(0.25j * np.pi))) < 1e-9
+
+
+def test_under_avoidance_a_robot_in_a_single_lane_jam_waits_for_the_one_giving_way():
+    """Head-on in the gap (no idle robot near, no way round): robot 1 (the higher index)
+    is the one to give way, so robot 0's recovery is to wait for it: no try, no back-off."""
+    w = orca_world([(4.0, 5.0), (16.0, 5.0), (18.0, 9.0)], obstacles=GAP)
+    f = w.fleet
+    give(w, [0, 1], [(16.0, 5.0), (4.0, 5.0)])
+    f.last_z_m[:2] = [9.65 + 5j, 10.35 + 5j]
+    t = at(w, 30.0)
+    w.jobs.recover(0, t)
+    assert (f.recoveries[0], f.replan[0], f.t_progress_s[0]) == (0, False, t)
+
+
+def test_assigning_a_task_leaves_the_paths_of_the_other_robots():
+    w = make_world([(2.0, 5.0), (2.0, 2.0)])
+    give(w, [0], [(8.0, 5.0)])
+    give(w, [1], [(8.0, 2.0)], ids=[1])
+    assert waypoints(w, 0).tolist() == [2 + 5j, 8 + 5j]
+    assert waypoints(w, 1).tolist() == [2 + 2j, 8 + 2j]
+
+
 def test_robot_blocked_by_a_driving_one_backs_off_instead_of_going_round():
     w = make_world([(2.0, 5.0), (3.0, 5.0)], seed=2, avoidance="none")
     f = w.fleet
@@ -692,8 +726,9 @@ def test_a_stuck_robot_asks_aside_an_idle_robot_that_stands_while_driving_out():
     assert not w.jobs.ask_idle(0, t)
     assert f.recoveries[0] == 0 and f.yield_until_s[1] == t + 10.0
     f.v_cmd_mps[1] = 0.05  # ... standing
+    f.recoveries[0] = 1  # one try spent before
     assert w.jobs.ask_idle(0, t)
-    assert f.recoveries[0] == 1 and f.t_progress_s[0] == t
+    assert f.recoveries[0] == 2 and f.t_progress_s[0] == t
     assert f.yield_until_s[1] == t + YIELD_TIMEOUT_S
     end = waypoints(w, 1)[-1]
     assert abs(end.imag - 5.0) >= 1.0 - 1e-9  # off the way along y = 5, a step or two aside
@@ -1137,8 +1172,12 @@ def test_abandon_gives_up_the_task_where_the_robot_stands():
     f = world.fleet
     f.stuck_left_m[1], f.replan[1], f.backoff_until_s[1] = 4.0, True, 30.0
     f.t_progress_s[1], f.yielding[1] = 13.0, True
+    world.jobs.blocked[1] = True  # it was waiting for a repair
+    world.jobs.sites.admitted[:2] = True
     t = at(world, 20.0)
     out = world.jobs.abandon(1, t)
+    assert world.jobs.blocked.tolist()[:2] == [False, False]
+    assert world.jobs.sites.admitted[:2].tolist() == [True, False]  # only its place went
     assert (out.task_id, out.robot, out.t_alloc_s, out.t_s, out.bid) == (42, 1, 12.5, t, 4.5)
     assert type(out.t_alloc_s) is float and type(out.bid) is float
     assert (f.task[1], f.state[1]) == (-1, IDLE)

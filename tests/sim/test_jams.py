@@ -415,3 +415,19 @@ def test_with_no_path_back_the_straight_line_is_the_way():
     refuge = jams.refuge(0)
     assert refuge == 3.5 + 5j and not len(w.planner.path((8.5, 5.0), (3.5, 5.0)))
     assert jams.backed_in(0) is True
+
+
+def test_a_robot_beside_the_start_of_a_bent_way_back_is_judged_by_its_nearest_leg():
+    """Robot 0 backs out round the end of a wall: its way goes up-left 0.76 m to the wall's
+    corner, then left. Robot 1 stands 0.56 m to its right, nearest to the first leg only
+    0.15 m along it (beside robot 0, not in its way), though 0.82 m from the second leg."""
+    wall = [((4.9, 0.0), (5.1, 0.0), (5.1, 5.0), (4.9, 5.0))]
+    w = orca_world([(5.6, 4.6), (6.1, 4.85)], obstacles=wall)
+    jams = w.jobs.jams
+    jams.origin[0] = 4.2 + 4.6j
+    assert jams.refuge(0) == 2.7 + 4.6j
+    way = w.planner.path((5.6, 4.6), (2.7, 4.6)) @ np.array([1.0, 1j])
+    assert len(way) == 4 and abs(way[1] - way[0]) < 0.8  # the corner within DEADLOCK_M
+    assert jams.backed_in(0) is False
+    w.fleet.last_z_m[1] = 5.3 + 5.4j  # at the corner, 0.9 m along: in the way
+    assert jams.backed_in(0) is True

@@ -14,7 +14,7 @@ import pytest
 
 from sim.jams import AROUND_M, DEADLOCK_M, PASS_S
 from sim.recording import DRIVING, IDLE, WORKING
-from tests.sim.test_jobs import AISLE, GAP, at, give, orca_world, waypoints
+from tests.sim.test_jobs import AISLE, GAP, at, give, lane, orca_world, waypoints
 
 V_MAX = 1.5  # m/s
 
@@ -328,17 +328,6 @@ def test_robots_driving_beside_a_jam_on_open_floor_do_not_make_it_single_lane():
 
 
 # ---- single_lane, standoff -------------------------------------------------------------------
-
-
-def lane(obstacles, j: complex, k: complex, standing=()) -> bool:
-    """Is robot 0 at j single-lane toward robot 1 at k (robots 2.. stand, idle, at
-    ``standing``)?"""
-    starts = [(4.0, 2.0), (16.0, 2.0)] + [(p.real, p.imag) for p in standing]
-    w = orca_world(starts, obstacles=obstacles)
-    w.fleet.state[:2] = DRIVING
-    w.fleet.last_z_m[:2] = [j, k]
-    w.fleet.last_z_m[2:] = standing
-    return w.jobs.jams.single_lane(0, 1)
 
 
 def test_the_side_points_are_two_radii_and_the_gap_beside_the_robot_however_close_the_other():

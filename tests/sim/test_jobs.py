@@ -1288,7 +1288,7 @@ AISLE = [  # a corridor 2 m wide along y = 4..6 (two robots pass in it)
 ]
 
 
-def _lane(obstacles, j: complex, k: complex, standing=()) -> bool:
+def lane(obstacles, j: complex, k: complex, standing=()) -> bool:
     """Is robot 0 at j single-lane toward robot 1 at k (robots 2.. stand, idle, at standing)?"""
     starts = [(4.0, 2.0), (16.0, 2.0)] + [(p.real, p.imag) for p in standing]
     w = orca_world(starts, obstacles=obstacles)
@@ -1298,17 +1298,17 @@ def _lane(obstacles, j: complex, k: complex, standing=()) -> bool:
 
 
 def test_a_gap_is_single_lane_and_open_floor_or_a_two_metre_aisle_is_not():
-    assert _lane(GAP, 10 + 5j, 11 + 5j) and _lane(GAP, 10 + 5j, 9 + 5j)
-    assert not _lane(GAP, 8 + 5j, 9 + 5j)  # before the wall: room either side
-    assert not _lane(GAP, 10 + 5j, 10 + 6j)  # the line along the wall: room ahead
-    assert not _lane(AISLE, 10 + 5j, 11 + 5j)  # 0.6 m either side is free
-    assert not _lane(AISLE, 10 + 4.4j, 11 + 4.4j)  # one side free is enough
-    assert not _lane((), 10 + 5j, 11 + 5j)
+    assert lane(GAP, 10 + 5j, 11 + 5j) and lane(GAP, 10 + 5j, 9 + 5j)
+    assert not lane(GAP, 8 + 5j, 9 + 5j)  # before the wall: room either side
+    assert not lane(GAP, 10 + 5j, 10 + 6j)  # the line along the wall: room ahead
+    assert not lane(AISLE, 10 + 5j, 11 + 5j)  # 0.6 m either side is free
+    assert not lane(AISLE, 10 + 4.4j, 11 + 4.4j)  # one side free is enough
+    assert not lane((), 10 + 5j, 11 + 5j)
     # a robot standing 0.6 m to one side of the aisle's middle narrows it to one lane ...
-    assert _lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.3j])
+    assert lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.3j])
     # ... but not one 0.5 m (two radii) from that side point, or a driving one
-    assert not _lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.65j])
-    assert _lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.64j])
+    assert not lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.65j])
+    assert lane(AISLE, 10 + 4.55j, 11 + 4.55j, standing=[10 + 5.64j])
 
 
 def _head_on(obstacles, t_s: float):

@@ -89,7 +89,8 @@ def test_a_checkpoint_from_before_site_queues_restores_nobody_queued():
         got = getattr(s, name)
         assert got.dtype == bool and got.tolist() == [False] * 3, name
     assert s.hold_since_s.dtype == float and s.hold_since_s.tolist() == [np.inf] * 3
-    s.queue(at(w, 3.0))  # and the queue runs on them
+    s.queue(at(w, 3.0))  # and the queue runs on them: both robots are far off, none held
+    assert not (s.admitted | s.holding).any()
 
 
 def test_a_new_task_ends_any_hold_and_any_place():

@@ -201,20 +201,22 @@ class Sites:
 
     def free_place(self, j: int) -> complex | None:
         """The place robot j would be given at its site now: the service point if free, else
-        the free slot nearest to it; a place is taken when a robot let in to or at work at that
-        site keeps it or a robot that is not driving (at work, idle, on its way out) stands
-        within two radii and half ``SLOT_GAP_M`` of it. None if every place is taken."""
+        the free slot nearest to it; a place is taken when a robot let in to or at work at any
+        site keeps a place, or a robot that is not driving (at work, idle, on its way out)
+        stands, within two radii and half ``SLOT_GAP_M`` of it (a site's own places are further
+        apart than that, so a place kept for a site less than a slot ring away takes the places
+        it overlaps). None if every place is taken."""
         f, r = self.fleet, self.controller.radius_m
         z, site = f.last_z_m, self.service[j]
         cand = self.place_points(site)
-        mine = (self.admitted | (f.state == WORKING)) & (np.abs(self.service - site) < 1e-6)
-        mine[j] = False
-        kept = f.site[mine]
+        keeping = self.admitted | (f.state == WORKING)
+        keeping[j] = False
+        kept = f.site[keeping]
         standing = (f.state != DRIVING).nonzero()[0]
         room = 2.0 * r + 0.5 * SLOT_GAP_M
         taken = np.zeros(len(cand), dtype=bool)
         if len(kept):
-            taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < 1e-6
+            taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < room
         if len(standing):
             taken |= np.abs(z[standing][:, None] - cand[None, :]).min(axis=0) < room
         if taken.all():

@@ -147,6 +147,22 @@ def test_a_robot_standing_near_the_service_point_takes_it_and_the_nearest_free_s
     assert w.jobs.sites.free_place(0) == SITE
 
 
+@pytest.mark.parametrize("off_m, given", [(0.3, 1), (0.7, 0)])
+def test_a_place_kept_for_a_site_close_by_takes_the_slots_it_overlaps(off_m, given):
+    """Robot 3 keeps SITE's service point; robot 2, still driving far off, is let in to a site
+    ``off_m`` right of SITE's slot 0. Closer than 0.675 m, its place takes slot 0 (two robots
+    there would overlap), and robot 1, coming from the right and a little above, is given slot
+    1 instead; 0.7 m off it takes nothing and slot 0, the nearest, is given."""
+    _, f, jobs = crowd(3)
+    s = jobs.sites
+    f.site[3] = s.service[3] = SITE
+    other = slot(SITE, 0) + off_m
+    f.site[2] = s.service[2] = other
+    s.admitted[2:4] = True
+    f.last_z_m[1] = SITE + 2.0 + 0.5j
+    assert s.free_place(1) == slot(SITE, given)
+
+
 # ---- queue ---------------------------------------------------------------------------------
 
 

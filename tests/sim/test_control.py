@@ -25,6 +25,7 @@ from sim.control import (
 from sim.fleet import FleetState
 from sim.jobs import Jobs
 from sim.physics import PymunkWorld
+from sim.recording import WORKING
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
 from sim.tasks import Batch
 
@@ -159,6 +160,31 @@ def test_shared_formulas_give_the_same_numbers_on_floats_and_arrays():
     assert law.next_check_s(2.0, -1.0, 3.0) == 2.0 and law.next_check_s(2.0, 3.0, 3.0) == 3.0
 
 
+def test_the_law_s_formulas_give_the_numbers_worked_by_hand():
+    """Each formula of ``sim.drive_law`` on numbers worked out by hand (the parity test above
+    runs them on random numbers but cannot see a wrong formula both sides share)."""
+    assert law.steer_speeds(1.0, 2.0, 0.25, 3.0, -1.5, 1.2, math.sqrt) == (1.5, math.sqrt(2.65))
+    # ORCA's preferred velocity: toward the aim, at the speed that still brakes within the gap
+    pv = law.preferred_velocity(3 + 4j, 0.5, 0.0, 1.0, 1.5, math.sqrt, min)  # sqrt(0.5 * 2)
+    assert abs(pv - (0.6 + 0.8j)) < 1e-12
+    pv = law.preferred_velocity(3 + 4j, 2.0, 0.25, 0.5, 3.0, math.sqrt, min)  # sqrt(2.25)
+    assert abs(pv - (0.9 + 1.2j)) < 1e-12
+    pv = law.preferred_velocity(-6.0, 9.0, 0.0, 1.0, 1.5, math.sqrt, min)  # capped at the top
+    assert abs(pv - (-1.5)) < 1e-12
+    assert law.preferred_velocity(0j, 0.0, 0.0, 1.0, 1.5, math.sqrt, min) == 0
+    tiny = law.preferred_velocity(1e-13 + 0j, 1e-13, 0.0, 1.0, 1.5, math.sqrt, min)
+    assert tiny.real >= 0.0  # at its aim point a robot never prefers to move away from it
+    assert law.stopping_time_s(-0.8, 0.1, 0.25) == pytest.approx(0.3, abs=1e-15)
+    cap, creep = law.approach_cap_mps(0.5, 0.5, 3.0, 0.2, 0.04, math.sqrt)
+    assert cap == pytest.approx(math.sqrt(3.04) - 0.2, abs=1e-15) and creep == pytest.approx(0.3)
+    assert law.pair_share_m(2.0, 0.5, 0.3) == (1.5, 0.9)
+    assert law.rim_speed_mps(-0.4, 0.3) == pytest.approx(0.7, abs=1e-15)
+    assert law.twist_from_rims(0.2, -0.1, 1.0, 0.5) == pytest.approx((1.05, 0.65), abs=1e-15)
+    assert not law.on_arc(1.0, 1e-4) and law.on_arc(0.99, 1e-4)  # radius 1e4 m is straight
+    # within 60 degrees of our heading goes our way; the difference counts, not the sum
+    assert law.goes_our_way(1.0, 0.5, math.cos) and not law.goes_our_way(1.0, -0.5, math.cos)
+
+
 def test_control_body_sits_at_the_centre_of_the_arc():
     """On an arc the control body stands still at z + i R h; straight it moves at v h."""
     z, h = 2.0 + 3.0j, np.exp(0.7j)
@@ -193,3 +219,92 @@ def test_under_avoidance_a_fast_turn_that_must_slow_takes_the_wheels_first():
     assert old_v[0] > 0.5 and old_q[0] > q_fast - s  # without: speed first, turn lingers
     np.testing.assert_array_equal(v[1:], old_v[1:])
     np.testing.assert_array_equal(q[1:], old_q[1:])
+
+
+# ``prox_check_s`` is left out: the scalar period sleeps the proximity check while no robot that
+# steers is near another, the array period only while no two robots are (the same commands).
+SCHEDULE_FIELDS = (
+    "next_end_s",
+    "next_deadline_s",
+    "stuck_check_s",
+    "site_check_s",
+    "n_backoff",
+    "n_yield",
+    "n_steer",
+    "resting",
+    "calm",
+    "recovering",
+    "state_list",
+    "steer_list",
+)
+
+
+def assert_same_state(a: FleetState, ja: Jobs, b: FleetState, jb: Jobs, t: float) -> None:
+    """Every array of the fleet, every field of the schedule, where each robot is on its path,
+    the site queues and the completions of the two periods agree (to 1e-9 where the two
+    implementations round differently: numbers, not flags or indices)."""
+    for name in a.__dataclass_fields__:
+        x, y = getattr(a, name), getattr(b, name)
+        if not isinstance(x, np.ndarray):  # ``nobody``, never written
+            continue
+        if x.dtype.kind in "fc":
+            np.testing.assert_allclose(x, y, rtol=0, atol=1e-9, err_msg=f"{name} at {t} s")
+        else:
+            np.testing.assert_array_equal(x, y, err_msg=f"{name} at {t} s")
+    for name in SCHEDULE_FIELDS:
+        x, y = getattr(ja.schedule, name), getattr(jb.schedule, name)
+        if isinstance(x, float):
+            assert x == pytest.approx(y, rel=0, abs=1e-9), (name, t)
+        else:
+            assert x == y, (name, t)
+    np.testing.assert_array_equal(ja.follower.index, jb.follower.index)
+    for name, x in ja.sites.state_arrays().items():
+        np.testing.assert_array_equal(x, jb.sites.state_arrays()[name], err_msg=f"{name} at {t} s")
+    assert ja.done == jb.done, t
+
+
+# wheels that brake at 1.2 m/s^2 (every scenario's default brakes at 1.0, where 2 a = 2 / a)
+BRISK = DriveSpec(max_wheel_speed_radps=12.5, max_wheel_accel_radps2=30.0)
+
+
+@pytest.mark.parametrize(
+    ("case", "robots", "seconds", "shows", "drive", "avoidance"),
+    [
+        ("site", 12, 40.0, ("held", "slotted", "yielding"), None, "orca"),  # a site's queue
+        ("corridor", 2, 30.0, ("backing", "recovering"), None, "orca"),  # head-on, one lane
+        ("parked", 6, 12.0, (), None, "orca"),  # passing robots at work
+        ("junction", 4, 15.0, (), BRISK, "orca"),  # four robots cross, other wheels
+        ("site", 12, 30.0, ("beside",), None, "none"),  # no queue: work beside the one there
+    ],
+)
+def test_both_controls_leave_the_same_state_in_the_hard_cases(
+    case, robots, seconds, shows, drive, avoidance
+):
+    """Beyond the commands: period after period of a hard case, both implementations leave the
+    same fleet, schedule, path indices, site queues and completions. In the corridor robot 0 is
+    made to back off blind at 3 s (``Jobs.recover``, as at a stuck timeout with no way round)
+    and replans after it; without avoidance the array period looks for robots touching one at
+    the site among neighbour pairs (``dense_max`` set below the team, as beyond 64 robots).
+    Each case must show what it is there for."""
+    from sim.hardcases import CASES
+
+    kw = {} if drive is None else {"drive": drive}
+    world, _ = CASES[case].build(robots, "scalar", avoidance, lambda s: np.asarray(s, float), **kw)
+    if avoidance == "none":
+        world.controller.dense_max = 4
+    site = world.fleet.site.copy()
+    seen = dict.fromkeys(("backing", "recovering", "held", "slotted", "yielding", "beside"), 0)
+    for k in range(round(seconds / 0.1)):
+        if case == "corridor" and k == 30:
+            world.jobs.recover(0, world.time_s)
+        (a, ja), (b, jb) = (one_period(world, kind) for kind in (ScalarControl, ArrayControl))
+        assert_same_state(a, ja, b, jb, world.time_s)
+        seen["backing"] += world.schedule.n_backoff
+        seen["recovering"] += world.schedule.recovering
+        seen["yielding"] += world.schedule.n_yield
+        seen["held"] += int(world.jobs.sites.holding.sum())
+        seen["slotted"] += int(world.jobs.sites.slotted.sum())
+        working = world.fleet.state == WORKING
+        seen["beside"] += int((working & (np.abs(world.fleet.last_z_m - site) > 0.3)).sum())
+        world.advance(0.1)
+    assert all(seen[name] for name in shows), seen

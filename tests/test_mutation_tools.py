@@ -73,3 +73,33 @@ def test_the_score_counts_survivors_the_golden_runs_kill_as_killed(tmp_path, mon
     assert (c["killed"], c["by golden"], c["survived"], c["not run"]) == (3, 2, 1, 1)
     c = score.tally(codes, {"sim.control.orca.x_solve__mutmut_3": "why"}, golden)
     assert (c["killed"], c["survived"], c["equivalent"]) == (3, 0, 1)
+
+
+def test_the_screen_fills_in_mutants_mutmut_has_not_run_and_its_survivors_go_to_golden(
+    tmp_path, monkeypatch
+):
+    """``screen.py`` takes only the mutants mutmut has not run; ``score.py`` counts the screen's
+    results for those (a screen survivor as a survivor) and ``golden.py`` takes its survivors,
+    each only while the function's hash is the one the screen saw."""
+    screen, score, golden = load("screen"), load("score"), load("golden")
+    fake_mutants(tmp_path / "mutants")
+    monkeypatch.chdir(tmp_path)
+    assert screen.not_run(["*"]) == {"sim.control.orca.x_command__mutmut_2": "bbb"}
+    assert screen.not_run(["sim.control.orca.x_solve*"]) == {}
+    path = tmp_path / "mutants" / "screen.json"
+    row = {"result": "survived", "hash": "bbb"}
+    path.write_text(json.dumps({"sim.control.orca.x_command__mutmut_2": row}))
+    assert score.screened() == {"sim.control.orca.x_command__mutmut_2": 0}
+    assert "sim.control.orca.x_command__mutmut_2" in golden.survivors(["*"])
+    (codes,) = score.results().values()
+    c = score.tally(score.with_screen(codes, score.screened()), {})
+    assert (c["killed"], c["survived"], c["not run"]) == (1, 4, 0)
+    row["result"] = "killed"
+    path.write_text(json.dumps({"sim.control.orca.x_command__mutmut_2": row}))
+    c = score.tally(score.with_screen(codes, score.screened()), {})
+    assert (c["killed"], c["survived"], c["not run"]) == (2, 3, 0)
+    assert "sim.control.orca.x_command__mutmut_2" not in golden.survivors(["*"])
+    row["hash"] = "old"  # the function changed since the screen: not run again
+    path.write_text(json.dumps({"sim.control.orca.x_command__mutmut_2": row}))
+    assert score.screened() == {}
+    assert score.tally(score.with_screen(codes, score.screened()), {})["not run"] == 1

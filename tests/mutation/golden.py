@@ -34,15 +34,23 @@ SURVIVED = 0
 
 
 def survivors(patterns: list[str]) -> dict[str, str]:
-    """Survivor name -> hash of its function, for the names matching any of ``patterns``."""
+    """Survivor name -> hash of its function, for the names matching any of ``patterns``:
+    mutmut's survivors and, of the mutants it has not run, those that survived the screen
+    (``tests/mutation/screen.py``, the same function hash)."""
+    screen_path = MUTANTS / "screen.json"
+    screen = json.loads(screen_path.read_text()) if screen_path.exists() else {}
     out = {}
     for meta in sorted(MUTANTS.rglob("*.py.meta")):
         doc = json.loads(meta.read_text())
         hashes = doc.get("hash_by_function_name", {})
         for name, code in doc["exit_code_by_key"].items():
+            digest = hashes.get(name.rsplit("__mutmut_", 1)[0].rsplit(".", 1)[1], "")
+            row = screen.get(name, {})
+            if code is None and row.get("result") == "survived" and row.get("hash") == digest:
+                code = SURVIVED
             if code != SURVIVED or not any(fnmatch.fnmatchcase(name, p) for p in patterns):
                 continue
-            out[name] = hashes.get(name.rsplit("__mutmut_", 1)[0].rsplit(".", 1)[1], "")
+            out[name] = digest
     return out
 
 

@@ -11,6 +11,9 @@ counted apart and left out. Timeouts are counted apart too (a mutant that makes 
 is caught, but not by an assertion); mutants not run yet are shown as "not run". A survivor
 that the golden runs kill (``tests/mutation/golden.py``, run after mutmut: mutmut cannot select
 the golden tests) counts as killed, and the "by golden" column says how many of them.
+Mutants mutmut has not run take the result of ``tests/mutation/screen.py`` where it has one
+(killed by the screen's tests; one that survived the screen counts as a survivor, so the score
+of a screened module is a lower bound), and the "screened" column says how many.
 """
 
 from __future__ import annotations
@@ -48,12 +51,7 @@ def golden_kills(root: Path = Path("mutants")) -> set[str]:
     path = root / "golden-kills.json"
     if not path.exists():
         return set()
-    hashes = {}
-    for meta in root.rglob("*.py.meta"):
-        doc = json.loads(meta.read_text())
-        module = str(meta.relative_to(root)).removesuffix(".py.meta").replace("/", ".")
-        for fn, digest in doc.get("hash_by_function_name", {}).items():
-            hashes[f"{module}.{fn}"] = digest
+    hashes = function_hashes(root)
     rows = json.loads(path.read_text())
     return {
         name
@@ -61,6 +59,39 @@ def golden_kills(root: Path = Path("mutants")) -> set[str]:
         if row["result"] in ("killed", "crashed")
         and hashes.get(name.rsplit("__mutmut_", 1)[0]) == row["hash"]
     }
+
+
+SCREEN_CODES = {"killed": 1, "survived": 0, "timeout": 24}
+
+
+def screened(root: Path = Path("mutants")) -> dict[str, int]:
+    """Mutant name -> exit code as the screen found it (``tests/mutation/screen.py``), for
+    results of the function as mutmut last generated it (its hash unchanged)."""
+    path = root / "screen.json"
+    if not path.exists():
+        return {}
+    hashes = function_hashes(root)
+    return {
+        name: SCREEN_CODES[row["result"]]
+        for name, row in json.loads(path.read_text()).items()
+        if hashes.get(name.rsplit("__mutmut_", 1)[0]) == row["hash"]
+    }
+
+
+def function_hashes(root: Path) -> dict[str, str]:
+    """Mangled function name (module.function) -> the hash mutmut recorded for it."""
+    hashes = {}
+    for meta in root.rglob("*.py.meta"):
+        doc = json.loads(meta.read_text())
+        module = str(meta.relative_to(root)).removesuffix(".py.meta").replace("/", ".")
+        for fn, digest in doc.get("hash_by_function_name", {}).items():
+            hashes[f"{module}.{fn}"] = digest
+    return hashes
+
+
+def with_screen(codes: dict[str, int | None], screen: dict[str, int]) -> dict[str, int | None]:
+    """``codes`` with the screen's result for each mutant mutmut has not run."""
+    return {n: screen.get(n) if c is None else c for n, c in codes.items()}
 
 
 def tally(codes: dict[str, int | None], equiv: dict[str, str], golden=frozenset()) -> Counter:
@@ -102,14 +133,17 @@ def stale(runs: dict[str, dict[str, int | None]], equiv: dict[str, str]) -> list
 
 
 def main(argv: list[str]) -> int:
-    equiv, golden = equivalent(), golden_kills()
+    equiv, golden, screen = equivalent(), golden_kills(), screened()
     cols = ("killed", "by golden", "survived", "equivalent", "timeout", "not run", "other")
-    print(f"{'module':30s} " + " ".join(f"{c:>10s}" for c in cols) + "      score")
-    for module, codes in results().items():
+    print(f"{'module':30s} " + " ".join(f"{c:>10s}" for c in cols) + "      score   screened")
+    for module, mutmut_codes in results().items():
+        codes = with_screen(mutmut_codes, screen)
+        n_screened = sum(c is None and n in screen for n, c in mutmut_codes.items())
         c = tally(codes, equiv, golden)
         decided = c["killed"] + c["survived"]
         score = f"{100 * c['killed'] / decided:6.1f}%" if decided else "     -"
-        print(f"{module:30s} " + " ".join(f"{c[k]:10d}" for k in cols) + f"    {score}")
+        counts = " ".join(f"{c[k]:10d}" for k in cols)
+        print(f"{module:30s} {counts}    {score} {n_screened:10d}")
         if "--survivors" in argv:
             for name, code in codes.items():
                 if code in SURVIVED and name not in equiv and name not in golden:

@@ -1,0 +1,164 @@
+"""Mutants mutmut has not run, screened in-process against a fast selection of the suite.
+
+A surviving mutant costs mutmut its function's whole test selection, and for the control
+periods (``sim.control.scalar``, ``sim.control.array``: every simulation test calls them) that
+is three to four minutes a survivor. This script runs the mutants instead against a few fast
+tests that pin the control law (by default ``tests/sim/test_control.py``, whose parity tests
+compare the two control periods state by state in a crowd and in three hard cases, and four
+parity tests of ``tests/sim/test_physics.py``): each mutant is switched on in one Python with
+``MUTANT_UNDER_TEST`` (mutmut's trampolines read it at every call) and the tests run with
+``pytest.main``, stopping at the first failure.
+
+A mutant the screen kills is killed by tests of the suite. One it does not kill has passed
+only the screen's tests: ``score.py`` counts it as a survivor (so the score is a lower bound)
+and ``golden.py`` takes it as it takes mutmut's survivors.
+
+Run after ``mutmut run`` has generated the mutants, from the project root::
+
+    python tests/mutation/screen.py "sim.control.scalar.*"    # mutants not run by mutmut
+    python tests/mutation/screen.py --again "sim.control.scalar.*"  # after adding tests
+    python tests/mutation/golden.py "sim.control.scalar.*"    # the screen's survivors
+    python tests/mutation/score.py
+
+Results go to ``mutants/screen.json`` (mutant name -> "killed", "survived" or "timeout", with
+the hash of its function as mutmut recorded it: a result is dropped when the function changes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import fnmatch
+import json
+import os
+import queue
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+MUTANTS = Path("mutants")
+OUT = MUTANTS / "screen.json"
+TESTS = [
+    "tests/sim/test_control.py",
+    "tests/sim/test_physics.py::test_small_team_and_array_control_periods_agree",
+    "tests/sim/test_physics.py::test_both_control_periods_agree_in_a_crowd_with_caps_and_keep_right",
+    "tests/sim/test_physics.py::test_obstacle_caps_in_python_equal_the_array_version",
+    "tests/sim/test_physics.py::test_nearest_obstacle_point_in_python_equals_the_array_version",
+]
+LIMIT_S = 120  # a mutant whose tests run longer than this hangs (the tests take about 12 s)
+
+
+def not_run(patterns: list[str], root: Path = MUTANTS) -> dict[str, str]:
+    """Mutants mutmut has not run (exit code None) matching any of ``patterns`` -> the hash
+    of their function."""
+    out = {}
+    for meta in sorted(root.rglob("*.py.meta")):
+        doc = json.loads(meta.read_text())
+        hashes = doc.get("hash_by_function_name", {})
+        for name, code in doc["exit_code_by_key"].items():
+            if code is None and any(fnmatch.fnmatchcase(name, p) for p in patterns):
+                out[name] = hashes.get(name.rsplit("__mutmut_", 1)[0].rsplit(".", 1)[1], "")
+    return out
+
+
+def load(root: Path = MUTANTS) -> dict[str, dict[str, str]]:
+    path = root / "screen.json"
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+class _Hang(Exception):
+    pass
+
+
+def _alarm(*_) -> None:
+    raise _Hang
+
+
+def child(names: list[str], tests: list[str]) -> None:
+    """Inside ``mutants/``: each mutant against ``tests``; one JSON line per mutant."""
+    import pytest
+
+    sys.path.insert(0, os.getcwd())
+    signal.signal(signal.SIGALRM, _alarm)
+    quiet = ["-x", "-q", "-p", "no:cacheprovider", "--no-header", "-p", "no:warnings"]
+    with open(os.devnull, "w") as devnull:
+        for name in names:
+            os.environ["MUTANT_UNDER_TEST"] = name
+            signal.alarm(LIMIT_S)
+            out, sys.stdout = sys.stdout, devnull
+            try:
+                result = "survived" if pytest.main(quiet + tests) == 0 else "killed"
+            except _Hang:
+                result = "timeout"
+            finally:
+                sys.stdout = out
+                signal.alarm(0)
+            print(json.dumps([name, result]), flush=True)
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("patterns", nargs="*", default=["*"], help="mutant name patterns")
+    parser.add_argument("--jobs", type=int, default=2, help="child Pythons at once (default 2)")
+    parser.add_argument("--tests", nargs="+", default=TESTS, help="test ids (from mutants/)")
+    parser.add_argument(
+        "--again", action="store_true", help="screen the screen's survivors again (new tests)"
+    )
+    parser.add_argument("--child", nargs="+", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        child(args.child, args.tests)
+        return 0
+    if not MUTANTS.is_dir():
+        print("no mutants/ here: run mutmut first, from the project root", file=sys.stderr)
+        return 2
+    done = load()
+
+    def due(name: str, digest: str) -> bool:
+        row = done.get(name, {})
+        return row.get("hash") != digest or (args.again and row.get("result") == "survived")
+
+    todo = {n: h for n, h in not_run(args.patterns).items() if due(n, h)}
+    names = sorted(todo)
+    print(f"{len(names)} mutants not run by mutmut to screen", flush=True)
+    jobs = max(1, min(args.jobs, len(names)))
+    env = {**os.environ, "MUTANT_UNDER_TEST": ""}
+    script = str(Path(__file__).resolve())
+    procs = [
+        subprocess.Popen(
+            [sys.executable, script, "--tests", *args.tests, "--child", *names[k::jobs]],
+            cwd=MUTANTS,
+            env=env,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        for k in range(jobs)
+    ]
+    lines: queue.Queue = queue.Queue()
+
+    def pump(proc) -> None:
+        for line in proc.stdout:
+            lines.put(line)
+        lines.put(None)
+
+    for proc in procs:
+        threading.Thread(target=pump, args=(proc,), daemon=True).start()
+    k, running = 0, len(procs)
+    while running:  # each result is saved as it arrives
+        line = lines.get()
+        if line is None:
+            running -= 1
+            continue
+        name, result = json.loads(line)
+        done[name] = {"result": result, "hash": todo[name]}
+        tmp = OUT.with_suffix(".tmp")
+        tmp.write_text(json.dumps(done, indent=1, sort_keys=True) + "\n")
+        tmp.replace(OUT)
+        k += 1
+        print(f"[{k}/{len(names)}] {result:8s} {name}", flush=True)
+    return max(proc.wait() for proc in procs)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -4,6 +4,11 @@
 its two implementations, ``registry`` names them and makes the ``"auto"`` choice. Collision
 avoidance lives here too: ``orca`` (the law over numpy arrays), ``orca_small`` (its first steps
 in plain Python for a small team) and ``avoidance`` (the one call both periods make).
+
+The drive law's formulas both periods share live one floor down, in ``sim.drive_law``: the
+wheel limiter (``sim.motors``), the controller (``sim.drive``) and the site queues
+(``sim.sites``) use them too, and this package imports those modules, so the formulas cannot
+live here without an import cycle.
 """
 
 from sim.control.array import ArrayControl

@@ -384,10 +384,8 @@ class GridPlanner:
         self._fields[key] = (dist, last)
         return dist, last
 
-    def _first_visible(
-        self, pts: np.ndarray, rows: np.ndarray, lower: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Cheapest visible vertex per query.
+    def _first_visible(self, pts: np.ndarray, rows: np.ndarray, lower: np.ndarray) -> np.ndarray:
+        """Cost through the cheapest visible vertex per query.
 
         Args:
             pts: (m, 2) query points.
@@ -395,12 +393,11 @@ class GridPlanner:
             lower: (n, V) cost through each vertex if it is visible from the point.
 
         Returns:
-            (n,) cost through the first visible vertex in order of cost (``inf`` if none), and
-            (n,) that vertex (-1 if none).
+            (n,) cost through the first visible vertex in order of cost (``inf`` if none).
         """
         n, nv = lower.shape
         order = np.argsort(lower, axis=1)
-        cost, via = np.full(n, np.inf), np.full(n, -1)
+        cost = np.full(n, np.inf)
         todo, start, size = np.arange(n), 0, _FIRST_BATCH
         while todo.size and start < nv:
             cand = order[todo, start : start + size]
@@ -413,10 +410,9 @@ class GridPlanner:
             hit = vis.any(axis=1)
             first = np.argmax(vis, axis=1)[hit]
             cost[todo[hit]] = bound[hit, first]
-            via[todo[hit]] = cand[hit, first]
             todo = todo[~hit & ok[:, -1]]
             start, size = start + size, size * 4
-        return cost, via
+        return cost
 
     def distances(self, positions: np.ndarray, sites: np.ndarray) -> np.ndarray:
         """Planned path length (m) from each position (m, 2) to each site (k, 2); ``inf`` where
@@ -496,7 +492,7 @@ class GridPlanner:
         if r.size and len(self.vertices_):
             fields = np.array([self.goal_field(goal)[0] for goal in goals])
             to_vertex = np.linalg.norm(snapped[:, None] - self.vertices_[None], axis=2)
-            best[r, g] = self._first_visible(snapped, r, to_vertex[r] + fields[g])[0]
+            best[r, g] = self._first_visible(snapped, r, to_vertex[r] + fields[g])
         best = best + extra[:, None] + goal_extra[None]
         return best[:, inv.ravel()]
 
@@ -579,7 +575,7 @@ class GridPlanner:
         The end point keeps ``step_m / 2`` from every point of ``avoid`` (other robots).
         """
         lateral = 1j * travel
-        side = 1.0 if ((xy - other) * lateral.conj()).real >= 0 else -1.0
+        side = 1.0 if ((xy - other) * lateral.conjugate()).real >= 0 else -1.0
         for offset in (side * lateral, -side * lateral, travel):
             path = self._hop(xy, xy + step_m * offset, avoid, step_m / 2)
             if len(path):
@@ -593,7 +589,7 @@ class GridPlanner:
         will not move), ``offset_m`` to its side of the direction ``travel``; (0, 2) if neither
         side is free of obstacles and of the points ``avoid``."""
         lateral = 1j * travel
-        side = 1.0 if ((xy - around) * lateral.conj()).real >= 0 else -1.0
+        side = 1.0 if ((xy - around) * lateral.conjugate()).real >= 0 else -1.0
         for sign in (side, -side):
             hop = self._hop(xy, around + sign * offset_m * lateral, avoid, offset_m / 2)
             if len(hop):

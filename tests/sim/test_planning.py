@@ -248,3 +248,72 @@ def test_path_around_in_a_local_box_builds_the_graph_it_would_from_scratch(monke
     assert len(built) == 12
     for fast, slow in built:
         _same_graph(fast, slow)
+
+
+def open_planner(*obstacles) -> GridPlanner:
+    """A 20 x 20 m arena; obstacles grow by 0.35 m (radius 0.25 m and clearance 0.1 m)."""
+    return GridPlanner(spatial(obstacles=obstacles))
+
+
+def test_a_side_step_goes_away_from_the_other_robot_s_line_else_the_other_way_else_ahead():
+    """Robot at (5, 4.8), 0.2 m below the line of a robot at (3, 5) driving +x: it steps 1 m
+    down; with that cell taken (a box whose margin covers (5, 3.8)) or the way there cut (a
+    thin bar between), 1 m up; with both taken, 1 m ahead; with all three, no path."""
+    xy, other, step = 5.0 + 4.8j, 3.0 + 5.0j, 1.0
+    below = ((4.0, 2.5), (6.0, 2.5), (6.0, 3.6), (4.0, 3.6))  # margin up to y = 3.95
+    bar = ((4.0, 4.2), (6.0, 4.2), (6.0, 4.3), (4.0, 4.3))  # margin 3.85-4.65: (5, 3.8) free
+    above = ((4.0, 6.0), (6.0, 6.0), (6.0, 7.0), (4.0, 7.0))
+    ahead = ((6.2, 4.0), (7.0, 4.0), (7.0, 5.5), (6.2, 5.5))
+
+    def step_to(planner, avoid=()):
+        path = planner.side_step(xy, other, 1.0 + 0j, step, np.asarray(avoid, dtype=complex))
+        assert path.shape in ((2, 2), (0, 2))
+        if len(path):
+            assert path[0].tolist() == [5.0, 4.8]
+        return complex(*path[1]) if len(path) else None
+
+    assert step_to(open_planner()) == pytest.approx(5.0 + 3.8j)
+    assert step_to(open_planner(below)) == pytest.approx(5.0 + 5.8j)
+    bar_planner = open_planner(bar)
+    assert bar_planner.free_one(5.0, 3.8) and bar_planner.blocked_one(5.0, 4.8, 5.0, 3.8)
+    assert step_to(bar_planner) == pytest.approx(5.0 + 5.8j)
+    assert step_to(open_planner(below, above)) == pytest.approx(6.0 + 4.8j)
+    assert step_to(open_planner(below, above, ahead)) is None
+    # a robot within step / 2 of the end takes the place as an obstacle would
+    assert step_to(open_planner(), avoid=[5.3 + 3.6j]) == pytest.approx(5.0 + 5.8j)
+    assert step_to(open_planner(), avoid=[5.6 + 3.6j]) == pytest.approx(5.0 + 3.8j)
+    path = open_planner().side_step(xy, 3.0 + 4.7j, 1.0 + 0j, step, np.zeros(0, complex))
+    assert complex(*path[1]) == pytest.approx(xy + 1j)  # the other robot below: step up
+
+
+def test_a_detour_passes_a_standing_robot_on_our_side_of_it_then_plans_to_the_goal():
+    """Robot at (2, 4.9) going +x to (10, 5) past a robot standing at (5, 5): it first aims
+    1 m below that robot (its own side), then straight on; with that place taken, 1 m above;
+    with both taken, or the goal out of reach, no path."""
+    start, around, goal = 2.0 + 4.9j, 5.0 + 5.0j, (10.0, 5.0)
+    none = np.zeros(0, dtype=complex)
+    planner = open_planner()
+    path = planner.detour(start, around, 1.0 + 0j, 1.0, goal, none)
+    np.testing.assert_allclose(path, [[2.0, 4.9], [5.0, 4.0], [10.0, 5.0]], rtol=0, atol=1e-12)
+    path = planner.detour(start, around, 1.0 + 0j, 1.0, goal, np.array([5.2 + 4.3j]))
+    np.testing.assert_allclose(path, [[2.0, 4.9], [5.0, 6.0], [10.0, 5.0]], rtol=0, atol=1e-12)
+    taken = np.array([5.2 + 4.3j, 4.8 + 5.7j])
+    assert planner.detour(start, around, 1.0 + 0j, 1.0, goal, taken).shape == (0, 2)
+    walled = (  # a box round the goal: both places free, the goal unreachable
+        ((8.0, 3.0), (12.0, 3.0), (12.0, 3.5), (8.0, 3.5)),
+        ((8.0, 6.5), (12.0, 6.5), (12.0, 7.0), (8.0, 7.0)),
+        ((8.0, 3.0), (8.5, 3.0), (8.5, 7.0), (8.0, 7.0)),
+        ((11.5, 3.0), (12.0, 3.0), (12.0, 7.0), (11.5, 7.0)),
+    )
+    assert open_planner(*walled).detour(start, around, 1.0 + 0j, 1.0, goal, none).shape == (0, 2)
+    around_path = open_planner(BOX).detour(2.0 + 10.2j, 5.0 + 10.0j, 1.0 + 0j, 1.0, (18, 10), none)
+    assert around_path[1].tolist() == pytest.approx([5.0, 11.0])  # above: our side
+    assert not open_planner(BOX).blocked(around_path[:-1], around_path[1:]).any()
+    assert path_length(around_path) > 16.0  # round the box, not through it
+
+
+def test_distances_to_no_site_or_from_no_position_are_empty_tables():
+    planner = open_planner(BOX)
+    assert planner.distances(np.zeros((3, 2)) + 1.0, np.zeros((0, 2))).shape == (3, 0)
+    assert planner.distances(np.zeros((0, 2)), [[2.0, 2.0], [18.0, 18.0]]).shape == (0, 2)
+    assert planner.exact_distances(np.zeros((0, 2)), [[2.0, 2.0]]).shape == (0, 1)

@@ -84,7 +84,9 @@ def test_to_obstacle_over_grid_cells_is_the_full_pass_bit_for_bit(corners, seed)
     mid = 0.5 * (fol.edge0_[:40] + fol.edge1_[:40])  # on an edge: distance 0, maybe two edges
     z = np.concatenate([z, border, mid, [15.0 + 10.0j]])
     want = _nearest_all(fol, z)
-    for part in (z, z[(z.real > 0) & (z.real < 30) & (z.imag > 0) & (z.imag < 20)], z[:100]):
+    inside = z[(z.real > 0) & (z.real < 30) & (z.imag > 0) & (z.imag < 20)]
+    assert (cells.cell_of(inside) >= 0).all()  # the grid covers the arena: it is what runs
+    for part in (z, inside, z[:100]):
         got = fol.to_obstacle(part)
         assert np.array_equal(got.view(float), _nearest_all(fol, part).view(float))
     assert np.array_equal(fol.to_obstacle(z).view(float), want.view(float))

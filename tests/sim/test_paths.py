@@ -311,3 +311,38 @@ def test_the_cached_lists_follow_every_change_of_the_arrays():
     f.refresh_list_entry(1)
     assert f.segment_lists() is not cached
     assert f.segment_lists() == [a.tolist() for a in arrays()]
+
+
+def test_passing_waypoints_over_arrays_loads_what_one_robot_at_a_time_loads():
+    """Robots driven along their paths: each time ``targets`` passes waypoints (``_load``, over
+    the rows that passed), every current-segment entry equals what ``load_one`` gives that
+    robot at the same waypoint; at the final waypoint nothing more is passed."""
+    f = PathFollower(4, 1.5, OBSTACLES, R)
+    paths = [
+        [[1.0, 1.0], [2.5, 1.0], [2.5, 4.0], [6.0, 4.5]],
+        [[1.0, 9.0], [1.0, 9.0], [4.0, 9.0]],  # a first leg of no length
+        [[10.0, 1.0], [12.0, 1.5]],
+        [[6.0, 8.0], [7.0, 8.0], [7.0, 8.0], [9.0, 8.0], [11.0, 9.0], [13.0, 9.0]],  # ... a middle
+    ]
+    for j, p in enumerate(paths):
+        f.set_path(j, np.array(p))
+    names = ("tgt_", "unit_c_", "seg_m_", "after_", "corner2_", "switch_", "beyond_")
+    passed = 0
+    for _ in range(9):  # each robot put 0.1 m short of its waypoint: one passes per call
+        z = f.tgt_ - 0.1 * f.unit_c_.conj()
+        before = f.index.copy()
+        f.targets(z)
+        moved = np.flatnonzero(f.index != before)
+        passed += len(moved)
+        for j in range(4):
+            one = PathFollower(4, 1.5, OBSTACLES, R)
+            one.set_path(j, np.array(paths[j]))
+            one.index[j] = f.index[j]
+            one.load_one(j)
+            for name in names:
+                assert getattr(f, name)[j] == pytest.approx(getattr(one, name)[j], abs=1e-15)
+            np.testing.assert_array_equal(f.free_[:, j], one.free_[:, j])
+            np.testing.assert_array_equal(f.capped_[:, j], one.capped_[:, j])
+    assert passed == sum(len(p) - 2 for p in paths)  # every waypoint but the first and last
+    assert f.index.tolist() == [len(p) - 1 for p in paths]
+    assert (f.switch_ == -1.0).all() and (f.beyond_ == -np.inf).all()

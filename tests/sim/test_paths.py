@@ -136,20 +136,20 @@ def test_point_to_segment_distance_by_hand(p, want):
 
 
 def test_path_length_left_and_corner_speeds_are_those_worked_by_hand():
-    """Path (1, 1) -> (4, 1) -> (4, 5) -> (1, 9) -> (3, 9): legs 3, 4, 5, 2 m. A corner's
-    squared speed is (v cos^2)^2 of the turn's cosine: (4, 5) turns from (0, 4) to (-3, 4),
-    cosine 0.8; (4, 1) turns 90 degrees and (1, 9) more, so both stop the robot."""
+    """Path (1, 1) -> (4, 1) -> (4, 3) -> (1, 7) -> (1, 9): legs 3, 2, 5, 2 m. A corner's
+    squared speed is (v cos^2)^2 of the turn's cosine: (4, 3) turns from (0, 2) to (-3, 4)
+    and (1, 7) back, both cosine 0.8; (4, 1) turns 90 degrees and stops the robot."""
     v = 1.5
     f = PathFollower(2, v, WALLS, R)
-    path = np.array([[1.0, 1.0], [4.0, 1.0], [4.0, 5.0], [1.0, 9.0], [3.0, 9.0]])
-    assert f.set_path(1, path) == pytest.approx(14.0)
-    np.testing.assert_allclose(f.after_m[1], [14.0, 11.0, 7.0, 2.0, 0.0])
-    want = [0.0, 0.0, (v * 0.8**2) ** 2, 0.0, 0.0]
+    path = np.array([[1.0, 1.0], [4.0, 1.0], [4.0, 3.0], [1.0, 7.0], [1.0, 9.0]])
+    assert f.set_path(1, path) == pytest.approx(12.0)
+    np.testing.assert_allclose(f.after_m[1], [12.0, 9.0, 7.0, 2.0, 0.0])
+    want = [0.0, 0.0, (v * 0.8**2) ** 2, (v * 0.8**2) ** 2, 0.0]
     np.testing.assert_allclose(f.corner2[1], want, rtol=1e-12, atol=1e-15)
     assert f.last[1] == 4 and f.index[1] == 1 and f.last[0] == -1
     assert f.tgt_[1] == 4.0 + 1.0j and f.seg_m_[1] == pytest.approx(3.0)
     assert f.unit_c_[1] == pytest.approx(1.0)  # conj. of +x
-    assert f.after_[1] == pytest.approx(11.0) and f.switch_[1] == WAYPOINT_SWITCH_M
+    assert f.after_[1] == pytest.approx(9.0) and f.switch_[1] == WAYPOINT_SWITCH_M
     short = np.array([[1.0, 1.0], [1.0, 3.0]])  # a shorter path after a longer one: padded
     f.set_path(1, short)
     assert f.last[1] == 1 and (f.points[1, 1:] == 1.0 + 3.0j).all()
@@ -188,40 +188,72 @@ def test_waypoints_are_passed_within_the_switch_distance_or_beyond_their_normal_
     assert off is None
 
 
-def test_a_robot_off_its_free_width_aims_at_the_path_ahead_not_at_the_waypoint():
+TURNS = [0.0, np.arctan2(3.0, 4.0), 2.5, -1.2]  # the same scene turned: diagonal segments too
+
+
+def turned(turn: float):
+    """Points (x + iy) and polygons ((x, y), ...) of a scene turned by ``turn`` about (0, 0)."""
+    rot = np.exp(1j * turn)
+
+    def point(z):
+        return np.asarray(z) * rot
+
+    def poly(vertices):
+        return [(w.real, w.imag) for w in (np.array(vertices) @ C) * rot]
+
+    def path(points):
+        return np.array([[w.real, w.imag] for w in (np.array(points) @ C) * rot])
+
+    return rot, point, poly, path
+
+
+@pytest.mark.parametrize("turn", TURNS)
+def test_a_robot_off_its_free_width_aims_at_the_path_ahead_not_at_the_waypoint(turn):
     """Segment (1, 5) -> (15, 5) below a box 0.6 m above it (free width left 0.35 m): a
     robot 0.5 m to the left, 2 m along, aims at the path LOOKAHEAD_M on; 0.3 m to the left it
-    aims at the waypoint; one LOOKAHEAD_M from the waypoint or closer aims at the waypoint."""
-    f = PathFollower(3, 1.5, [box(2.0, 5.6, 12.0, 1.0)], R)
+    aims at the waypoint; one LOOKAHEAD_M from the waypoint or closer aims at the waypoint.
+    Its room in the lane: 0.15 m beyond the free width on the left, unbounded on the right.
+    Turned by any angle, the same answers turned."""
+    rot, point, poly, path = turned(turn)
+    f = PathFollower(3, 1.5, [poly(box(2.0, 5.6, 12.0, 1.0))], R)
     for j in range(3):
-        f.set_path(j, np.array([[1.0, 5.0], [15.0, 5.0]]))
+        f.set_path(j, path([[1.0, 5.0], [15.0, 5.0]]))
     assert f.free_m[0, 1, 0] == pytest.approx(0.6 - R) and f.free_m[0, 1, 1] == np.inf
-    z = np.array([3.0 + 5.5j, 3.0 + 5.3j, 14.0 + 5.5j])
-    aim, *_, off = f.targets(z)
+    z = point([3.0 + 5.5j, 3.0 + 5.3j, 14.0 + 5.5j])
+    aim, gap, _, _, off = f.targets(z)
     assert off.tolist() == [0, 2]
-    assert aim[0] == pytest.approx(3.0 + LOOKAHEAD_M + 5.0j - z[0])
-    assert aim[1] == pytest.approx(15.0 + 5.0j - z[1])
-    assert aim[2] == pytest.approx(15.0 + 5.0j - z[2])  # the look-ahead stops at the waypoint
+    assert aim[0] == pytest.approx(point(3.0 + LOOKAHEAD_M + 5.0j) - z[0])
+    assert aim[1] == pytest.approx(point(15.0 + 5.0j) - z[1])
+    assert aim[2] == pytest.approx(point(15.0 + 5.0j) - z[2])  # the look-ahead stops there
+    assert gap[0] == pytest.approx(abs(12.0 - 0.5j))
+    left, room_l, room_r = f.lane_room(z[:2], np.array([0, 1]))
+    np.testing.assert_allclose(left, [1j * rot] * 2, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(room_l, [0.35 - 0.5, 0.35 - 0.3], rtol=0, atol=1e-9)
+    assert (room_r == np.inf).all()
 
 
-def test_a_robot_drifts_when_its_stopping_point_leaves_the_free_width():
+@pytest.mark.parametrize("turn", TURNS)
+def test_a_robot_drifts_when_its_stopping_point_leaves_the_free_width(turn):
     """Same segment and box: heading straight up at 1 m/s from 0.2 m left of the path, it
-    stops 1 m (0.1 s reaction, 1 / (2 a) = 0.9) farther up: beyond 0.35 m; at 0.1 m/s it
-    stops 0.019 m on, inside; heading down (toward no obstacle) it never drifts; backing up at
-    1 m/s with heading down it does. A robot without a path never drifts."""
-    f = PathFollower(5, 1.5, [box(2.0, 5.6, 12.0, 1.0)], R)
-    for j in range(4):
-        f.set_path(j, np.array([[1.0, 5.0], [15.0, 5.0]]))
-    z = np.full(5, 6.0 + 5.2j)
-    h = np.array([1j, 1j, -1j, -1j, 1j])
-    v = np.array([1.0, 0.1, 1.0, -1.0, 1.0])
-    assert f.drifting(z, h, v, 0.1, 0.9).tolist() == [0, 3]
-    assert f.drifting(z, h, 0.0 * v, 0.1, 0.9) is None
+    stops 0.6 m (0.1 s reaction, 1 / (2 a) = 0.5) farther up: beyond 0.35 m; at 0.1 m/s it
+    stops 0.015 m on, inside; heading down (toward no obstacle) it never drifts; backing up at
+    1 m/s with heading down it does; at 0.4 m/s it stops 0.12 m on (0.32 m off, inside), at
+    0.5 m/s 0.175 m on (0.375 m off, beyond). A robot without a path never drifts. Turned, the same."""
+    rot, point, poly, path = turned(turn)
+    f = PathFollower(7, 1.5, [poly(box(2.0, 5.6, 12.0, 1.0))], R)
+    for j in range(6):
+        f.set_path(j, path([[1.0, 5.0], [15.0, 5.0]]))
+    z = np.full(7, point(6.0 + 5.2j))
+    h = np.array([1j, 1j, -1j, -1j, 1j, 1j, 1j]) * rot
+    v = np.array([1.0, 0.1, 1.0, -1.0, 0.4, 0.5, 1.0])
+    assert f.drifting(z, h, v, 0.1, 0.5).tolist() == [0, 3, 5]
+    assert f.drifting(z, h, 0.0 * v, 0.1, 0.5) is None
     f.clear(0)
-    assert f.drifting(z, h, v, 0.1, 0.9).tolist() == [3]
-    *_, off = f.targets(np.full(5, 6.0 + 9.0j))
-    assert off.tolist() == [1, 2, 3]  # robots 0 and 4 have no path: never off it
-    assert f.index[4] == 0  # ... and pass no waypoint
+    assert f.last[0] == -1 and f.index[0] == 0 and not f.capped_[:, 0].any()
+    assert f.drifting(z, h, v, 0.1, 0.5).tolist() == [3, 5]
+    *_, off = f.targets(np.full(7, point(6.0 + 9.0j)))
+    assert off.tolist() == [1, 2, 3, 4, 5]  # robots 0 and 6 have no path: never off it
+    assert f.index[0] == f.index[6] == 0  # ... and pass no waypoint
 
 
 def test_several_paths_at_once_give_what_one_at_a_time_gives():
@@ -233,7 +265,7 @@ def test_several_paths_at_once_give_what_one_at_a_time_gives():
     segs = free_segments(rng, 30, many, length=(0.3, 4.0))
     paths = []
     for k in range(0, 30, 3):  # ten paths: polylines of one to three legs
-        legs = 1 + k % 3
+        legs = 1 + (k // 3) % 3
         pts = [segs[k][0], *[segs[k + i][1] for i in range(legs)]]
         paths.append(np.array([[p.real, p.imag] for p in pts]))
     for cap_m in (np.inf, 1.0):
@@ -279,6 +311,9 @@ def test_the_cached_lists_follow_every_change_of_the_arrays():
     f.set_path(0, path)
     lists = f.segment_lists()
     assert lists[0][:2] == [2.0 + 1.0j, 0j] and lists[1][0] == 1.0  # waypoints, conj. unit
+    f.clear(0)  # the first change after the lists were made
+    assert f.segment_lists()[2][0] == -1.0  # no path: no switch distance
+    f.set_path(0, path)
 
     def arrays():
         return [

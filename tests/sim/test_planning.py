@@ -146,6 +146,34 @@ def test_inflate_contains_the_grown_polygon():
     assert (polygon_signed_distance(around, grown) <= 1e-9).all()
 
 
+@pytest.mark.parametrize(
+    ("poly", "corners"),
+    [
+        (TRIANGLE, 6),  # three corners sharper than 90 degrees: each bevelled, two vertices
+        (BOX, 4),  # right angles: the offset edges meet, no bevel
+        (((0.0, 0.0), (4.0, 0.0), (5.0, 2.0), (2.0, 4.0), (-1.0, 2.0)), 5),  # all obtuse
+        (((0.0, 0.0), (6.0, 0.0), (6.0, 0.5)), 5),  # a sliver: two sharp corners
+    ],
+)
+def test_inflate_grows_no_more_than_its_bevels_allow(poly, corners):
+    """Every edge moves out by exactly d, and no vertex lies farther than d * sqrt(2) from
+    the polygon: a corner whose edge normals turn by at most 90 degrees keeps its mitre
+    (d / cos of half the turn), a sharper one is cut by a bevel (d / cos of a quarter)."""
+    d = 0.5
+    poly = np.asarray(poly, dtype=float)
+    grown = inflate(poly, d)
+    assert len(grown) == corners
+    depth = polygon_signed_distance(grown, poly)
+    assert (depth >= d - 1e-9).all() and (depth <= d * np.sqrt(2) + 1e-9).all()
+    mid = 0.5 * (grown + np.roll(grown, -1, axis=0))  # each grown edge's midpoint: d out
+    edge = np.roll(grown, -1, axis=0) - grown
+    normal = np.column_stack([edge[:, 1], -edge[:, 0]]) / np.linalg.norm(edge, axis=1)[:, None]
+    gap = polygon_signed_distance(mid, poly)
+    assert (gap >= d - 1e-9).all()
+    assert (polygon_signed_distance(mid + 1e-6 * normal, grown) > 0).all()  # outward CCW
+    assert np.array_equal(inflate(poly, 0.0), poly) and inflate(poly.astype(int), 0).dtype == float
+
+
 def test_occupancy_grid_marks_obstacles_and_walls():
     planner = GridPlanner(spatial())
     grid = planner.occupancy

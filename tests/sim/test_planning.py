@@ -12,6 +12,8 @@ from scipy.sparse.csgraph import dijkstra
 from sim.planning import GridPlanner, inflate, polygon_signed_distance
 from sim.scenario import DriveSpec, SpatialSpec
 
+C = np.array([1.0, 1j])
+
 BOX = ((8.0, 8.0), (12.0, 8.0), (12.0, 12.0), (8.0, 12.0))
 TRIANGLE = ((14.0, 2.0), (17.0, 2.0), (15.5, 6.0))
 
@@ -316,28 +318,48 @@ def test_a_side_step_goes_away_from_the_other_robot_s_line_else_the_other_way_el
 
 def test_a_detour_passes_a_standing_robot_on_our_side_of_it_then_plans_to_the_goal():
     """Robot at (2, 4.9) going +x to (10, 5) past a robot standing at (5, 5): it first aims
-    1 m below that robot (its own side), then straight on; with that place taken, 1 m above;
-    with both taken, or the goal out of reach, no path."""
+    0.8 m below that robot (its own side), then straight on; with that place taken, 0.8 m
+    above; with both taken, or the goal out of reach, no path."""
     start, around, goal = 2.0 + 4.9j, 5.0 + 5.0j, (10.0, 5.0)
     none = np.zeros(0, dtype=complex)
     planner = open_planner()
-    path = planner.detour(start, around, 1.0 + 0j, 1.0, goal, none)
-    np.testing.assert_allclose(path, [[2.0, 4.9], [5.0, 4.0], [10.0, 5.0]], rtol=0, atol=1e-12)
-    path = planner.detour(start, around, 1.0 + 0j, 1.0, goal, np.array([5.2 + 4.3j]))
-    np.testing.assert_allclose(path, [[2.0, 4.9], [5.0, 6.0], [10.0, 5.0]], rtol=0, atol=1e-12)
-    taken = np.array([5.2 + 4.3j, 4.8 + 5.7j])
-    assert planner.detour(start, around, 1.0 + 0j, 1.0, goal, taken).shape == (0, 2)
+    path = planner.detour(start, around, 1.0 + 0j, 0.8, goal, none)
+    np.testing.assert_allclose(path, [[2.0, 4.9], [5.0, 4.2], [10.0, 5.0]], rtol=0, atol=1e-12)
+    path = planner.detour(start, around, 1.0 + 0j, 0.8, goal, np.array([5.2 + 4.3j]))
+    np.testing.assert_allclose(path, [[2.0, 4.9], [5.0, 5.8], [10.0, 5.0]], rtol=0, atol=1e-12)
+    taken = np.array([5.2 + 4.3j, 4.8 + 5.7j])  # within 0.4 m (half the offset) of each place
+    assert planner.detour(start, around, 1.0 + 0j, 0.8, goal, taken).shape == (0, 2)
     walled = (  # a box round the goal: both places free, the goal unreachable
         ((8.0, 3.0), (12.0, 3.0), (12.0, 3.5), (8.0, 3.5)),
         ((8.0, 6.5), (12.0, 6.5), (12.0, 7.0), (8.0, 7.0)),
         ((8.0, 3.0), (8.5, 3.0), (8.5, 7.0), (8.0, 7.0)),
         ((11.5, 3.0), (12.0, 3.0), (12.0, 7.0), (11.5, 7.0)),
     )
-    assert open_planner(*walled).detour(start, around, 1.0 + 0j, 1.0, goal, none).shape == (0, 2)
-    around_path = open_planner(BOX).detour(2.0 + 10.2j, 5.0 + 10.0j, 1.0 + 0j, 1.0, (18, 10), none)
-    assert around_path[1].tolist() == pytest.approx([5.0, 11.0])  # above: our side
+    assert open_planner(*walled).detour(start, around, 1.0 + 0j, 0.8, goal, none).shape == (0, 2)
+    around_path = open_planner(BOX).detour(2.0 + 10.2j, 5.0 + 10.0j, 1.0 + 0j, 0.8, (18, 10), none)
+    assert around_path[1].tolist() == pytest.approx([5.0, 10.8])  # above: our side
     assert not open_planner(BOX).blocked(around_path[:-1], around_path[1:]).any()
     assert path_length(around_path) > 16.0  # round the box, not through it
+
+
+def test_a_path_round_a_standing_robot_runs_along_the_flat_side_of_its_octagon():
+    """A robot standing on the straight line: the path goes round an octagon with flat sides
+    up, down, left and right that holds the robot's disc, grown like every obstacle, so its
+    top (or bottom) leg runs exactly radius + inflation from the robot's centre, and no point
+    of the path comes closer than that."""
+    planner = open_planner()
+    grow = planner.inflate_m
+    for robot, r in ((10.0 + 10.1j, 0.25), (10.0 + 9.9j, 0.25), (7.0 + 10.0j, 0.4)):
+        path = planner.path_around((2.0, 10.0), (18.0, 10.0), np.array([robot]), r)
+        z = path @ C
+        assert len(z) == 4  # start, the two corners of the flat side, goal
+        above = z[1].imag > robot.imag
+        side = robot.imag + (r + grow if above else -(r + grow))
+        assert z[1].imag == pytest.approx(side, abs=1e-9)
+        assert z[2].imag == pytest.approx(side, abs=1e-9)
+        t = np.linspace(0.0, 1.0, 400)[:, None]
+        points = (z[:-1] + t * (z[1:] - z[:-1])).ravel()
+        assert np.abs(points - robot).min() >= r + grow - 1e-9
 
 
 def test_distances_to_no_site_or_from_no_position_are_empty_tables():

@@ -36,6 +36,7 @@ OBSTACLES = [
     box(8.0, 6.0, 2.0, 0.5),
     ((12.0, 4.0), (16.0, 4.5), (14.0, 8.0)),  # a triangle
     box(16.5, 1.0, 0.6, 2.0),
+    ((6.0, 1.0), (7.5, 1.6)),  # a lone wall: a segment, its ends no other edge's
     *WALLS,
 ]
 
@@ -164,6 +165,8 @@ def test_a_straight_on_corner_keeps_full_speed_and_a_sharp_one_none():
     f.set_path(0, np.array([[1.0, 1.0], [3.0, 1.0], [5.0, 1.0], [5.0 - 1.0, 1.0 + 1e-3]]))
     assert f.corner2[0, 1] == pytest.approx(v * v)
     assert f.corner2[0, 2] == 0.0  # almost straight back
+    f.set_path(0, np.array([[1.0, 1.0], [1.4, 1.0], [1.8, 1.0], [2.0, 1.2]]))  # short legs
+    np.testing.assert_allclose(f.corner2[0, 1:3], [v * v, (v * 0.5) ** 2], rtol=1e-9)
     f.set_path(0, np.array([[1.0, 1.0], [1.0, 1.0], [3.0, 1.0]]))  # a leg of no length
     assert f.corner2[0, 1] == 0.0 and f.after_m[0, 0] == pytest.approx(2.0)
     assert f.unit_c_[0] == 0.0 and f.seg_m_[0] == 0.0
@@ -215,14 +218,16 @@ def test_a_robot_off_its_free_width_aims_at_the_path_ahead_not_at_the_waypoint(t
     Its room in the lane: 0.15 m beyond the free width on the left, unbounded on the right.
     Turned by any angle, the same answers turned."""
     rot, point, poly, path = turned(turn)
-    f = PathFollower(3, 1.5, [poly(box(2.0, 5.6, 12.0, 1.0))], R)
+    f = PathFollower(4, 1.5, [poly(box(2.0, 5.6, 12.0, 1.0))], R)
     for j in range(3):
         f.set_path(j, path([[1.0, 5.0], [15.0, 5.0]]))
+    f.set_path(3, path([[-1.0, 3.0], [1.0, 5.0], [15.0, 5.0]]))  # passes (1, 5) in this call
     assert f.free_m[0, 1, 0] == pytest.approx(0.6 - R) and f.free_m[0, 1, 1] == np.inf
-    z = point([3.0 + 5.5j, 3.0 + 5.3j, 14.0 + 5.5j])
+    z = point([3.0 + 5.5j, 3.0 + 5.3j, 14.0 + 5.5j, 3.0 + 5.5j])
     aim, gap, _, _, off = f.targets(z)
-    assert off.tolist() == [0, 2]
+    assert off.tolist() == [0, 2, 3] and f.index[3] == 2
     assert aim[0] == pytest.approx(point(3.0 + LOOKAHEAD_M + 5.0j) - z[0])
+    assert aim[3] == pytest.approx(aim[0]) and gap[3] == pytest.approx(gap[0])
     assert aim[1] == pytest.approx(point(15.0 + 5.0j) - z[1])
     assert aim[2] == pytest.approx(point(15.0 + 5.0j) - z[2])  # the look-ahead stops there
     assert gap[0] == pytest.approx(abs(12.0 - 0.5j))
@@ -238,7 +243,8 @@ def test_a_robot_drifts_when_its_stopping_point_leaves_the_free_width(turn):
     stops 0.6 m (0.1 s reaction, 1 / (2 a) = 0.5) farther up: beyond 0.35 m; at 0.1 m/s it
     stops 0.015 m on, inside; heading down (toward no obstacle) it never drifts; backing up at
     1 m/s with heading down it does; at 0.4 m/s it stops 0.12 m on (0.32 m off, inside), at
-    0.5 m/s 0.175 m on (0.375 m off, beyond). A robot without a path never drifts. Turned, the same."""
+    0.5 m/s 0.175 m on (0.375 m off, beyond). A robot without a path never drifts. Turned, the
+    same."""
     rot, point, poly, path = turned(turn)
     f = PathFollower(7, 1.5, [poly(box(2.0, 5.6, 12.0, 1.0))], R)
     for j in range(6):
@@ -302,7 +308,11 @@ def test_the_nearest_obstacle_point_is_the_nearest_point_of_any_outline():
     np.testing.assert_allclose(np.abs(got), want, rtol=0, atol=0.004)
     on = z + got  # the point found lies on an outline
     assert max(np.abs(pts - p).min() for p in on) < 0.004
-    assert PathFollower(1, 1.5, (), R).to_obstacle(z[:3]).tolist() == [np.inf] * 3
+    one = np.array([f.to_obstacle_one(p) for p in z.tolist()])  # plain Python, boxes skipped
+    np.testing.assert_allclose(one, got, rtol=0, atol=1e-12)
+    empty = PathFollower(1, 1.5, (), R)
+    assert empty.to_obstacle(z[:3]).tolist() == [np.inf] * 3
+    assert empty.to_obstacle_one(complex(z[0])) == complex(np.inf, 0.0)
 
 
 def test_the_cached_lists_follow_every_change_of_the_arrays():

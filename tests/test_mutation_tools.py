@@ -103,3 +103,44 @@ def test_the_screen_fills_in_mutants_mutmut_has_not_run_and_its_survivors_go_to_
     path.write_text(json.dumps({"sim.control.orca.x_command__mutmut_2": row}))
     assert score.screened() == {}
     assert score.tally(score.with_screen(codes, score.screened()), {})["not run"] == 1
+
+
+def test_a_mutant_that_kills_the_screen_s_python_counts_as_killed_and_the_rest_still_run():
+    """A child Python that dies (a mutant aborting inside numpy's or scipy's C code) reports
+    no more lines: the mutant it died on is reported killed, as mutmut counts a crashed test
+    process, and a new child screens the rest; every mutant is reported exactly once."""
+    screen = load("screen")
+    dies_on = {"m3", "m4"}  # m4 right after m3: the new child dies at once too
+    spawned = []
+
+    class Child:
+        def __init__(self, part):
+            spawned.append(list(part))
+            out = []
+            for name in part:
+                if name in dies_on:
+                    break
+                out.append(json.dumps([name, "survived" if name == "m2" else "killed"]))
+            self.stdout = iter(out)
+
+        def wait(self):
+            return 0
+
+    reported = []
+    names = [f"m{k}" for k in range(1, 8)]
+    screen.screen_all(names, 1, Child, lambda *row: reported.append(row))
+    assert reported == [
+        ("m1", "killed", False),
+        ("m2", "survived", False),
+        ("m3", "killed", True),
+        ("m4", "killed", True),
+        ("m5", "killed", False),
+        ("m6", "killed", False),
+        ("m7", "killed", False),
+    ]
+    assert spawned == [names, names[3:], names[4:]]
+    reported.clear()
+    screen.screen_all(names, 2, Child, lambda *row: reported.append(row))
+    assert sorted(r[0] for r in reported) == names  # two children: each mutant once
+    assert {r[0] for r in reported if r[2]} == dies_on
+    assert screen.screen_all([], 2, Child, lambda *row: reported.append(row)) is None

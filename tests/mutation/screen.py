@@ -9,6 +9,9 @@ parity tests of ``tests/sim/test_physics.py``): each mutant is switched on in on
 ``MUTANT_UNDER_TEST`` (mutmut's trampolines read it at every call) and the tests run with
 ``pytest.main``, stopping at the first failure.
 
+A mutant that makes the child Python die (an abort inside numpy's or scipy's C code) counts as
+killed, as mutmut counts a crashed test process, and a new child screens the rest.
+
 A mutant the screen kills is killed by tests of the suite. One it does not kill has passed
 only the screen's tests: ``score.py`` counts it as a survivor (so the score is a lower bound)
 and ``golden.py`` takes it as it takes mutmut's survivors.
@@ -124,42 +127,70 @@ def main(argv: list[str]) -> int:
     todo = {n: h for n, h in not_run(args.patterns).items() if due(n, h)}
     names = sorted(todo)
     print(f"{len(names)} mutants not run by mutmut to screen", flush=True)
-    jobs = max(1, min(args.jobs, len(names)))
     env = {**os.environ, "MUTANT_UNDER_TEST": ""}
     script = str(Path(__file__).resolve())
-    procs = [
-        subprocess.Popen(
-            [sys.executable, script, "--tests", *args.tests, "--child", *names[k::jobs]],
+
+    def spawn(part: list[str]):
+        return subprocess.Popen(
+            [sys.executable, script, "--tests", *args.tests, "--child", *part],
             cwd=MUTANTS,
             env=env,
             stdout=subprocess.PIPE,
             text=True,
         )
-        for k in range(jobs)
-    ]
-    lines: queue.Queue = queue.Queue()
 
-    def pump(proc) -> None:
-        for line in proc.stdout:
-            lines.put(line)
-        lines.put(None)
+    k = 0
 
-    for proc in procs:
-        threading.Thread(target=pump, args=(proc,), daemon=True).start()
-    k, running = 0, len(procs)
-    while running:  # each result is saved as it arrives
-        line = lines.get()
-        if line is None:
-            running -= 1
-            continue
-        name, result = json.loads(line)
+    def report(name: str, result: str, crashed: bool) -> None:  # each result saved at once
+        nonlocal k
         done[name] = {"result": result, "hash": todo[name]}
         tmp = OUT.with_suffix(".tmp")
         tmp.write_text(json.dumps(done, indent=1, sort_keys=True) + "\n")
         tmp.replace(OUT)
         k += 1
-        print(f"[{k}/{len(names)}] {result:8s} {name}", flush=True)
-    return max(proc.wait() for proc in procs)
+        note = " (its Python died: counted as mutmut counts a crash)" if crashed else ""
+        print(f"[{k}/{len(names)}] {result:8s} {name}{note}", flush=True)
+
+    screen_all(names, args.jobs, spawn, report)
+    return 0
+
+
+def screen_all(names: list[str], jobs: int, spawn, report) -> None:
+    """Screen ``names`` in ``jobs`` child Pythons at once, each taking every jobs-th name.
+
+    ``spawn(names)`` starts a child (a process whose ``stdout`` yields one JSON line
+    ``[name, result]`` per mutant, in the order given); ``report(name, result, crashed)`` is
+    called for every mutant, from this thread. A child that ends before it reported all its
+    mutants died on the next one (a mutant can abort Python inside numpy or scipy's C code):
+    that mutant is reported "killed", as mutmut counts a test process that crashes, and a new
+    child takes the rest."""
+    lines: queue.Queue = queue.Queue()
+
+    def slot(part: list[str]) -> None:
+        while part:
+            proc = spawn(part)
+            seen = 0
+            for line in proc.stdout:
+                name, result = json.loads(line)
+                lines.put((name, result, False))
+                seen += 1
+            proc.wait()
+            if seen < len(part):
+                lines.put((part[seen], "killed", True))
+                seen += 1
+            part = part[seen:]
+        lines.put(None)
+
+    jobs = max(1, min(jobs, len(names)))
+    for j in range(jobs):
+        threading.Thread(target=slot, args=(names[j::jobs],), daemon=True).start()
+    running = jobs if names else 0
+    while running:
+        item = lines.get()
+        if item is None:
+            running -= 1
+        else:
+            report(*item)
 
 
 if __name__ == "__main__":

@@ -107,8 +107,8 @@ def test_the_screen_fills_in_mutants_mutmut_has_not_run_and_its_survivors_go_to_
 
 def test_a_mutant_that_kills_the_screen_s_python_counts_as_killed_and_the_rest_still_run():
     """A child Python that dies (a mutant aborting inside numpy's or scipy's C code) reports
-    no more lines: the mutant it died on is reported killed, as mutmut counts a crashed test
-    process, and a new child screens the rest; every mutant is reported exactly once."""
+    no more lines: the mutant it died on is reported crashed (``score.py``: "other", neither
+    killed nor survived) and a new child screens the rest; every mutant is reported once."""
     screen = load("screen")
     dies_on = {"m3", "m4"}  # m4 right after m3: the new child dies at once too
     spawned = []
@@ -132,8 +132,8 @@ def test_a_mutant_that_kills_the_screen_s_python_counts_as_killed_and_the_rest_s
     assert reported == [
         ("m1", "killed", False),
         ("m2", "survived", False),
-        ("m3", "killed", True),
-        ("m4", "killed", True),
+        ("m3", "crashed", True),
+        ("m4", "crashed", True),
         ("m5", "killed", False),
         ("m6", "killed", False),
         ("m7", "killed", False),
@@ -144,3 +144,5 @@ def test_a_mutant_that_kills_the_screen_s_python_counts_as_killed_and_the_rest_s
     assert sorted(r[0] for r in reported) == names  # two children: each mutant once
     assert {r[0] for r in reported if r[2]} == dies_on
     assert screen.screen_all([], 2, Child, lambda *row: reported.append(row)) is None
+    score = load("score")
+    assert score.tally({"m3": score.SCREEN_CODES["crashed"]}, {})["other"] == 1

@@ -61,7 +61,7 @@ def golden_kills(root: Path = Path("mutants")) -> set[str]:
     }
 
 
-SCREEN_CODES = {"killed": 1, "survived": 0, "timeout": 24}
+SCREEN_CODES = {"killed": 1, "survived": 0, "timeout": 24, "crashed": -6}  # SIGABRT: other
 
 
 def screened(root: Path = Path("mutants")) -> dict[str, int]:

@@ -9,8 +9,9 @@ parity tests of ``tests/sim/test_physics.py``): each mutant is switched on in on
 ``MUTANT_UNDER_TEST`` (mutmut's trampolines read it at every call) and the tests run with
 ``pytest.main``, stopping at the first failure.
 
-A mutant that makes the child Python die (an abort inside numpy's or scipy's C code) counts as
-killed, as mutmut counts a crashed test process, and a new child screens the rest.
+A mutant that makes the child Python die (an abort inside numpy's or scipy's C code) is
+recorded "crashed" (mutmut calls a test process that aborts "suspicious"; ``score.py`` counts
+it under "other", neither killed nor survived), and a new child screens the rest.
 
 A mutant the screen kills is killed by tests of the suite. One it does not kill has passed
 only the screen's tests: ``score.py`` counts it as a survivor (so the score is a lower bound)
@@ -23,8 +24,9 @@ Run after ``mutmut run`` has generated the mutants, from the project root::
     python tests/mutation/golden.py "sim.control.scalar.*"    # the screen's survivors
     python tests/mutation/score.py
 
-Results go to ``mutants/screen.json`` (mutant name -> "killed", "survived" or "timeout", with
-the hash of its function as mutmut recorded it: a result is dropped when the function changes).
+Results go to ``mutants/screen.json`` (mutant name -> "killed", "survived", "timeout" or
+"crashed", with the hash of its function as mutmut recorded it: a result is dropped when the
+function changes).
 """
 
 from __future__ import annotations
@@ -148,7 +150,7 @@ def main(argv: list[str]) -> int:
         tmp.write_text(json.dumps(done, indent=1, sort_keys=True) + "\n")
         tmp.replace(OUT)
         k += 1
-        note = " (its Python died: counted as mutmut counts a crash)" if crashed else ""
+        note = " (its Python died; mutmut would call it suspicious)" if crashed else ""
         print(f"[{k}/{len(names)}] {result:8s} {name}{note}", flush=True)
 
     screen_all(names, args.jobs, spawn, report)
@@ -162,8 +164,7 @@ def screen_all(names: list[str], jobs: int, spawn, report) -> None:
     ``[name, result]`` per mutant, in the order given); ``report(name, result, crashed)`` is
     called for every mutant, from this thread. A child that ends before it reported all its
     mutants died on the next one (a mutant can abort Python inside numpy or scipy's C code):
-    that mutant is reported "killed", as mutmut counts a test process that crashes, and a new
-    child takes the rest."""
+    that mutant is reported "crashed" and a new child takes the rest."""
     lines: queue.Queue = queue.Queue()
 
     def slot(part: list[str]) -> None:
@@ -176,7 +177,7 @@ def screen_all(names: list[str], jobs: int, spawn, report) -> None:
                 seen += 1
             proc.wait()
             if seen < len(part):
-                lines.put((part[seen], "killed", True))
+                lines.put((part[seen], "crashed", True))
                 seen += 1
             part = part[seen:]
         lines.put(None)

@@ -146,3 +146,18 @@ def test_a_mutant_that_kills_the_screen_s_python_counts_as_killed_and_the_rest_s
     assert screen.screen_all([], 2, Child, lambda *row: reported.append(row)) is None
     score = load("score")
     assert score.tally({"m3": score.SCREEN_CODES["crashed"]}, {})["other"] == 1
+
+
+def test_two_screens_at_once_keep_each_other_s_results(tmp_path):
+    """Each result is added to ``screen.json`` as the file is now, so a screen of another
+    module that saved meanwhile keeps its results (each process used to write back the whole
+    file as it had read it at its start)."""
+    screen = load("screen")
+    screen.save("a.x_f__mutmut_1", {"result": "killed", "hash": "h"}, tmp_path)
+    screen.save("b.x_g__mutmut_1", {"result": "survived", "hash": "k"}, tmp_path)
+    screen.save("a.x_f__mutmut_1", {"result": "survived", "hash": "h2"}, tmp_path)
+    assert screen.load(tmp_path) == {
+        "a.x_f__mutmut_1": {"result": "survived", "hash": "h2"},
+        "b.x_g__mutmut_1": {"result": "survived", "hash": "k"},
+    }
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["screen.json", "screen.lock"]

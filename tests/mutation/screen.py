@@ -32,6 +32,7 @@ function changes).
 from __future__ import annotations
 
 import argparse
+import fcntl
 import fnmatch
 import json
 import os
@@ -43,7 +44,6 @@ import threading
 from pathlib import Path
 
 MUTANTS = Path("mutants")
-OUT = MUTANTS / "screen.json"
 TESTS = [
     "tests/sim/test_control.py",
     "tests/sim/test_physics.py::test_small_team_and_array_control_periods_agree",
@@ -72,6 +72,18 @@ def not_run(patterns: list[str], root: Path = MUTANTS) -> dict[str, str]:
 def load(root: Path = MUTANTS) -> dict[str, dict[str, str]]:
     path = root / "screen.json"
     return json.loads(path.read_text()) if path.exists() else {}
+
+
+def save(name: str, row: dict[str, str], root: Path = MUTANTS) -> None:
+    """Add one result to ``screen.json``: read, add, write to a temporary file and rename, all
+    under a lock, so screens of other modules running at the same time keep theirs."""
+    with open(root / "screen.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        done = load(root)
+        done[name] = row
+        tmp = root / "screen.json.tmp"
+        tmp.write_text(json.dumps(done, indent=1, sort_keys=True) + "\n")
+        tmp.replace(root / "screen.json")
 
 
 class _Hang(Exception):
@@ -145,10 +157,7 @@ def main(argv: list[str]) -> int:
 
     def report(name: str, result: str, crashed: bool) -> None:  # each result saved at once
         nonlocal k
-        done[name] = {"result": result, "hash": todo[name]}
-        tmp = OUT.with_suffix(".tmp")
-        tmp.write_text(json.dumps(done, indent=1, sort_keys=True) + "\n")
-        tmp.replace(OUT)
+        save(name, {"result": result, "hash": todo[name]})
         k += 1
         note = " (its Python died; mutmut would call it suspicious)" if crashed else ""
         print(f"[{k}/{len(names)}] {result:8s} {name}{note}", flush=True)

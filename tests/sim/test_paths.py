@@ -367,13 +367,14 @@ def test_passing_waypoints_over_arrays_loads_what_one_robot_at_a_time_loads():
         [[1.0, 1.0], [2.5, 1.0], [2.5, 4.0], [6.0, 4.5]],
         [[1.0, 9.0], [1.0, 9.0], [4.0, 9.0]],  # a first leg of no length
         [[10.0, 1.0], [12.0, 1.5]],
-        [[6.0, 8.0], [7.0, 8.0], [7.0, 8.0], [9.0, 8.0], [11.0, 9.0], [13.0, 9.0]],  # ... a middle
+        # a leg of no length in the middle, and one shorter than 1 m
+        [[6.0, 8.0], [7.0, 8.0], [7.0, 8.0], [9.0, 8.0], [9.5, 8.3], [11.0, 9.0], [13.0, 9.0]],
     ]
     for j, p in enumerate(paths):
         f.set_path(j, np.array(p))
     names = ("tgt_", "unit_c_", "seg_m_", "after_", "corner2_", "switch_", "beyond_")
     passed = 0
-    for _ in range(9):  # each robot put 0.1 m short of its waypoint: one passes per call
+    for _ in range(10):  # each robot put 0.1 m short of its waypoint: one passes per call
         z = f.tgt_ - 0.1 * f.unit_c_.conj()
         before = f.index.copy()
         f.targets(z)

@@ -367,3 +367,24 @@ def test_distances_to_no_site_or_from_no_position_are_empty_tables():
     assert planner.distances(np.zeros((3, 2)) + 1.0, np.zeros((0, 2))).shape == (3, 0)
     assert planner.distances(np.zeros((0, 2)), [[2.0, 2.0], [18.0, 18.0]]).shape == (0, 2)
     assert planner.exact_distances(np.zeros((0, 2)), [[2.0, 2.0]]).shape == (0, 1)
+
+
+def test_a_segment_parallel_to_an_obstacle_edge_and_outside_it_is_not_blocked_by_it():
+    """y = 13 runs parallel to the box's grown top edge (y = 12.35) and 0.65 m above it: that
+    box does not block it, in plain Python or over arrays, nor does a diamond block a segment
+    1 m outside its edge and parallel to it; a second box the line crosses does block it.
+    (Cyrus-Beck's branch for a segment exactly parallel to an edge and outside it is never
+    reached: an exactly parallel edge is axis-parallel, so it is a side of the obstacle's
+    bounding box, and a segment outside it misses the box, which is tested first.)"""
+    planner = open_planner(BOX)
+    assert not planner.blocked_one(2.0, 13.0, 18.0, 13.0)
+    assert not planner.blocked(np.array([[2.0, 13.0]]), np.array([[18.0, 13.0]]))[0]
+    assert not planner.blocked_one(10.0, 2.0, 10.0, 7.0)  # vertical, below: another edge
+    diamond = open_planner(((10.0, 6.0), (14.0, 10.0), (10.0, 14.0), (6.0, 10.0)))
+    assert not diamond.blocked_one(11.0, 5.0, 15.0, 9.0)  # y = x - 6, the edge y = x - 4
+    assert not diamond.blocked(np.array([[11.0, 5.0]]), np.array([[15.0, 9.0]]))[0]
+    assert diamond.blocked_one(11.0, 7.0, 15.0, 11.0)  # y = x - 4: on the edge, in the margin
+    crossed = open_planner(BOX, ((14.5, 12.5), (15.5, 12.5), (15.5, 13.5), (14.5, 13.5)))
+    assert crossed.blocked_one(2.0, 13.0, 18.0, 13.0)
+    assert crossed.blocked(np.array([[2.0, 13.0]]), np.array([[18.0, 13.0]]))[0]
+    assert not crossed.blocked_one(2.0, 13.0, 13.5, 13.0)  # stops short of the second box

@@ -209,6 +209,24 @@ def test_single_queries_in_python_equal_the_array_versions(obstacles):
     np.testing.assert_allclose(lengths, planner.distances(starts[:n], goals[:n]).diagonal())
 
 
+def test_blocked_in_small_chunks_decides_as_in_one(monkeypatch):
+    """``blocked`` splits many segments into chunks of at most ``_CHUNK`` (segment, edge)
+    entries: with chunks of a few segments, some meeting no obstacle at all, every segment is
+    decided as in one chunk (and as ``blocked_one`` decides it)."""
+    import sim.planning
+
+    planner = GridPlanner(spatial((BOX, TRIANGLE)))
+    rng = np.random.default_rng(5)
+    a, b = rng.uniform(0.5, 19.5, size=(2, 600, 2))
+    b[::3] = a[::3] + 0.2  # short segments, most of them meeting no obstacle's box
+    whole = planner.blocked(a, b)
+    assert 50 < whole.sum() < 550
+    monkeypatch.setattr(sim.planning, "_CHUNK", 3 * 2 * planner.normals_.shape[1])
+    np.testing.assert_array_equal(planner.blocked(a, b), whole)  # chunks of three segments
+    single = [planner.blocked_one(*p, *q) for p, q in zip(a.tolist(), b.tolist(), strict=True)]
+    assert single == whole.tolist()
+
+
 def _same_graph(a: GridPlanner, b: GridPlanner) -> None:
     np.testing.assert_array_equal(a.vertices_, b.vertices_)
     np.testing.assert_array_equal(a.seen_, b.seen_)

@@ -406,3 +406,30 @@ def test_a_segment_parallel_to_an_obstacle_edge_and_outside_it_is_not_blocked_by
     assert crossed.blocked_one(2.0, 13.0, 18.0, 13.0)
     assert crossed.blocked(np.array([[2.0, 13.0]]), np.array([[18.0, 13.0]]))[0]
     assert not crossed.blocked_one(2.0, 13.0, 13.5, 13.0)  # stops short of the second box
+
+
+def test_a_path_from_or_to_a_point_in_a_margin_starts_and_ends_there_via_the_nearest_free_one():
+    """A robot pressed into the box's margin (7.8, 10): its path starts where it is, then the
+    nearest free point (7.65 m, on the grown edge, pushed out 1e-6 m), then plans on; the same
+    at the goal end, and a point beyond the arena's wall margin is pulled back inside first."""
+    planner = open_planner(BOX)
+    grow = planner.inflate_m
+    path = planner.path((7.8, 10.0), (2.0, 10.0))
+    np.testing.assert_allclose(path, [[7.8, 10.0], [8.0 - grow, 10.0], [2.0, 10.0]], atol=2e-6)
+    assert not planner.free_one(*path[0]) and planner.free_one(*path[1])
+    back = planner.path((2.0, 10.0), (7.8, 10.0))
+    np.testing.assert_allclose(back, path[::-1], atol=2e-6)
+    edge = planner.snap([[-1.0, 5.0], [25.0, 5.0], [5.0, 0.1], [5.0, 25.0]])
+    np.testing.assert_allclose(
+        edge, [[grow, 5.0], [20.0 - grow, 5.0], [5.0, grow], [5.0, 20.0 - grow]]
+    )
+
+
+def test_an_arena_cut_in_two_by_a_wall_has_no_path_across():
+    """A wall wider than the arena: no vertex of its grown outline lies in the arena, and no
+    path crosses; each half plans as before."""
+    planner = open_planner(((-1.0, 9.5), (21.0, 9.5), (21.0, 10.5), (-1.0, 10.5)))
+    assert len(planner.vertices_) == 0
+    assert planner.path((2.0, 2.0), (2.0, 18.0)).shape == (0, 2)
+    assert planner.distances([[2.0, 2.0]], [[2.0, 18.0]])[0, 0] == np.inf
+    np.testing.assert_allclose(planner.path((2.0, 2.0), (18.0, 3.0)), [[2.0, 2.0], [18.0, 3.0]])

@@ -161,3 +161,25 @@ def test_two_screens_at_once_keep_each_other_s_results(tmp_path):
         "b.x_g__mutmut_1": {"result": "survived", "hash": "k"},
     }
     assert sorted(p.name for p in tmp_path.iterdir()) == ["screen.json", "screen.lock"]
+
+
+def test_the_screen_refuses_tests_that_fail_with_no_mutant_on(tmp_path, monkeypatch, capsys):
+    """A wrong test id, or tests that fail on the unmutated code, would count every mutant
+    killed: the screen runs its tests once with no mutant on first, and stops with exit code
+    2 and one line if they do not pass, writing nothing."""
+    screen = load("screen")
+    fake_mutants(tmp_path / "mutants")
+    monkeypatch.chdir(tmp_path)
+    tests = tmp_path / "mutants" / "tests"
+    tests.mkdir()
+    (tests / "test_fine.py").write_text("def test_fine():\n    assert True\n")
+    (tests / "test_broken.py").write_text("def test_broken():\n    assert False\n")
+    for bad in (["tests/test_broken.py"], ["tests/test_missing.py"]):
+        assert screen.main(["--tests", *bad, "*"]) == 2
+        err = capsys.readouterr().err
+        assert "do not pass with no mutant on" in err and len(err.strip().splitlines()) == 1
+        assert not (tmp_path / "mutants" / "screen.json").exists()
+    assert screen.main(["--tests", "tests/test_fine.py", "--jobs", "1", "*"]) == 0
+    assert screen.load() == {  # the one mutant not run by mutmut, screened end to end
+        "sim.control.orca.x_command__mutmut_2": {"result": "survived", "hash": "bbb"}
+    }

@@ -9,6 +9,10 @@ parity tests of ``tests/sim/test_physics.py``): each mutant is switched on in on
 ``MUTANT_UNDER_TEST`` (mutmut's trampolines read it at every call) and the tests run with
 ``pytest.main``, stopping at the first failure.
 
+The tests first run once with no mutant on, and nothing is screened (exit code 2) unless they
+pass: a wrong test id, or a stale copy of the tests in ``mutants/``, would otherwise fail every
+mutant and count it killed.
+
 A mutant that makes the child Python die (an abort inside numpy's or scipy's C code) is
 recorded "crashed" (mutmut calls a test process that aborts "suspicious"; ``score.py`` counts
 it under "other", neither killed nor survived), and a new child screens the rest.
@@ -116,6 +120,15 @@ def child(names: list[str], tests: list[str]) -> None:
             print(json.dumps([name, result]), flush=True)
 
 
+def clean(tests: list[str]) -> int:
+    """Inside ``mutants/``: ``tests`` with no mutant on; pytest's exit code."""
+    import pytest
+
+    sys.path.insert(0, os.getcwd())
+    os.environ["MUTANT_UNDER_TEST"] = ""
+    return int(pytest.main(["-q", "-p", "no:cacheprovider", "--no-header", *tests]))
+
+
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("patterns", nargs="*", default=["*"], help="mutant name patterns")
@@ -125,10 +138,13 @@ def main(argv: list[str]) -> int:
         "--again", action="store_true", help="screen the screen's survivors again (new tests)"
     )
     parser.add_argument("--child", nargs="+", help=argparse.SUPPRESS)
+    parser.add_argument("--clean", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
         child(args.child, args.tests)
         return 0
+    if args.clean:
+        return clean(args.tests)
     if not MUTANTS.is_dir():
         print("no mutants/ here: run mutmut first, from the project root", file=sys.stderr)
         return 2
@@ -162,6 +178,19 @@ def main(argv: list[str]) -> int:
         note = " (its Python died; mutmut would call it suspicious)" if crashed else ""
         print(f"[{k}/{len(names)}] {result:8s} {name}{note}", flush=True)
 
+    if names:  # a wrong test id or a stale copy would fail every mutant: "killed" for all
+        run = [sys.executable, script, "--tests", *args.tests, "--clean"]
+        done_ = subprocess.run(run, cwd=MUTANTS, env=env, capture_output=True, text=True)
+        if done_.returncode != 0:
+            said = [x.strip() for x in done_.stdout.splitlines() if x.strip()]
+            said += [x.strip() for x in done_.stderr.splitlines() if x.strip()]  # last: errors
+            print(
+                f"the screen's tests do not pass with no mutant on (pytest exit "
+                f"{done_.returncode}: {said[-1] if said else 'no output'}): check --tests, and "
+                "that mutants/tests has the current tests; nothing screened",
+                file=sys.stderr,
+            )
+            return 2
     screen_all(names, args.jobs, spawn, report)
     return 0
 

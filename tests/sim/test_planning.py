@@ -433,3 +433,34 @@ def test_an_arena_cut_in_two_by_a_wall_has_no_path_across():
     assert planner.path((2.0, 2.0), (2.0, 18.0)).shape == (0, 2)
     assert planner.distances([[2.0, 2.0]], [[2.0, 18.0]])[0, 0] == np.inf
     np.testing.assert_allclose(planner.path((2.0, 2.0), (18.0, 3.0)), [[2.0, 2.0], [18.0, 3.0]])
+
+
+@pytest.mark.parametrize("mirror", [False, True])
+def test_a_local_plan_keeps_an_obstacle_just_outside_its_box_whose_margin_reaches_in(mirror):
+    """In an arena of more than 256 vertices ``path_around`` plans in a box 6 m round the
+    start, goal and robots (here x 4-16 m). A wall from x = 1 to 15.5 m stands between start
+    and goal; the gap between its end and the box's side is closed by a post whose grown shape
+    starts at 15.8 m, 0.2 m inside the box, though the post itself lies outside it: the post
+    must be planned around, so no path is found in the box (the whole arena has one, round
+    the wall's far end). Mirrored, the same at the box's low side."""
+
+    def flip(x):
+        return 40.0 - x if mirror else x
+
+    def rect(x0, x1, y0, y1):
+        xs = sorted((flip(x0), flip(x1)))
+        return ((xs[0], y0), (xs[1], y0), (xs[1], y1), (xs[0], y1))
+
+    filler = [
+        rect(2.0 + 3 * k, 2.5 + 3 * k, 26.0 + 3 * j, 26.5 + 3 * j)
+        for k in range(13)
+        for j in range(5)
+    ]
+    wall, post = rect(1.0, 15.5, 11.8, 12.2), rect(16.15, 17.0, 10.0, 14.0)
+    planner = GridPlanner(spatial((*filler, wall, post), width=40.0, height=40.0))
+    assert len(planner.vertices_) > 256
+    start, goal = (flip(10.0), 10.0), (flip(10.0), 14.0)
+    robot = np.array([flip(10.0) + 8.0j])
+    assert planner.path_around(start, goal, robot, 0.25).shape == (0, 2)
+    whole = planner.path(start, goal)
+    assert len(whole) and not planner.blocked(whole[:-1], whole[1:]).any()

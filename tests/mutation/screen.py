@@ -180,13 +180,13 @@ def main(argv: list[str]) -> int:
 
     if names:  # a wrong test id or a stale copy would fail every mutant: "killed" for all
         run = [sys.executable, script, "--tests", *args.tests, "--clean"]
-        done_ = subprocess.run(run, cwd=MUTANTS, env=env, capture_output=True, text=True)
-        if done_.returncode != 0:
-            said = [x.strip() for x in done_.stdout.splitlines() if x.strip()]
-            said += [x.strip() for x in done_.stderr.splitlines() if x.strip()]  # last: errors
+        ran = subprocess.run(run, cwd=MUTANTS, env=env, capture_output=True, text=True)
+        if ran.returncode != 0:
+            said = [x.strip() for x in ran.stdout.splitlines() if x.strip()]
+            said += [x.strip() for x in ran.stderr.splitlines() if x.strip()]  # last: errors
             print(
                 f"the screen's tests do not pass with no mutant on (pytest exit "
-                f"{done_.returncode}: {said[-1] if said else 'no output'}): check --tests, and "
+                f"{ran.returncode}: {said[-1] if said else 'no output'}): check --tests, and "
                 "that mutants/tests has the current tests; nothing screened",
                 file=sys.stderr,
             )

@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 
 from sim.control.orca import AVOIDANCE
 from sim.jams import LOOK_AHEAD
-from sim.planning import GridPlanner, polygon_signed_distance
+from sim.navigation.planning import GridPlanner, polygon_signed_distance
 from sim.scenario import DriveSpec, RobotSpec, SpatialSpec
 
 _WORDS = {"avoidance": AVOIDANCE, "look_ahead": LOOK_AHEAD}  # string keys, allowed values

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.planning import GridPlanner
+from sim.navigation.planning import GridPlanner
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
 
 

@@ -2,9 +2,9 @@
 
 A differential-drive robot turns its wheels at rim speeds u_r, u_l (m/s); its body moves at
 v = (u_r + u_l) / 2 along its heading and turns at omega = (u_r - u_l) / b, never sideways. The
-controller aims each robot at a point on its path (``sim.paths.PathFollower``), slows down for
-corners, for the final goal, for the robots around it and for obstacles it has been pushed close
-to, and returns the (v, omega) command after the wheel-speed limit (both wheels scaled, so the
+controller aims each robot at a point on its path (``sim.navigation.paths.PathFollower``), slows
+down for corners, for the final goal, for the robots around it and for obstacles it has been pushed
+close to, and returns the (v, omega) command after the wheel-speed limit (both wheels scaled, so the
 curvature is kept) and the wheel-acceleration limit (braking first: a robot that must slow down
 gets its full deceleration and turns with what the wheels have left).
 

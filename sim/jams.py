@@ -22,8 +22,8 @@ import numpy as np
 
 from sim.drive import DiffDriveController
 from sim.fleet import PROGRESS_M, FleetState
-from sim.paths import PathFollower
-from sim.planning import GridPlanner
+from sim.navigation.paths import PathFollower
+from sim.navigation.planning import GridPlanner
 from sim.recording import DRIVING, WORKING
 from sim.scenario import SpatialSpec
 from sim.sites import SLOT_GAP_M, Sites

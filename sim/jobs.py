@@ -18,8 +18,8 @@ import numpy as np
 from sim.drive import DiffDriveController
 from sim.fleet import Clock, FleetState, Schedule, refresh_schedule
 from sim.jams import LANE_GAP_M, Jams
-from sim.paths import PathFollower
-from sim.planning import GridPlanner
+from sim.navigation.paths import PathFollower
+from sim.navigation.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import SpatialSpec
 from sim.sites import YIELD_STEP_M, YIELD_TIMEOUT_S, Sites

@@ -11,8 +11,8 @@ What runs at which rate:
   iterations and one batched read of the contact depths (``sim.contacts``: that is how
   ``contacts_max_overlap_m`` is the worst penetration of any step).
 - every control period (``1 / control_hz``): one batched read of all poses; odometry; for every
-  robot that drives or yields, path following and steering (``sim.paths``); progress; the wheel
-  limits and one batched write of every motor command; the trajectory recorder. Checks that
+  robot that drives or yields, path following and steering (``sim.navigation.paths``); progress; the
+  wheel limits and one batched write of every motor command; the trajectory recorder. Checks that
   cannot fire yet are skipped until the earliest time they could: the proximity caps between
   robots, keep-right and make-way until two robots could be within ``DiffDriveController.look_m``
   of each other (beyond, no cap binds); the arrival check until a driving robot could be in its
@@ -63,8 +63,8 @@ from sim.faults import build_faults, fault_seed_sequence
 from sim.fleet import Clock, FleetState, Schedule
 from sim.jobs import Jobs
 from sim.motors import Motors
-from sim.paths import PathFollower
-from sim.planning import GridPlanner
+from sim.navigation.paths import PathFollower
+from sim.navigation.planning import GridPlanner
 from sim.recording import WORKING, shown_states
 from sim.scenario import Scenario
 from sim.stalls import StallMeter

@@ -20,8 +20,8 @@ import numpy as np
 from sim.drive import DiffDriveController
 from sim.drive_law import SPEED_BOUND, next_check_s
 from sim.fleet import FleetState, Schedule
-from sim.paths import PathFollower
-from sim.planning import GridPlanner
+from sim.navigation.paths import PathFollower
+from sim.navigation.planning import GridPlanner
 from sim.recording import DRIVING, IDLE, WORKING
 
 SLOTS = 4  # service slots on a ring around each service point (collision avoidance on)

@@ -281,6 +281,28 @@ def test_no_drawing_in_physics_and_no_physics_in_allocation(report):
     assert report.forbidden == []
 
 
+def reaches_outside(edges: list[Edge], package: str, allowed: Iterable[str]) -> list[str]:
+    """Imports of ``package``'s modules that leave it for a module not in ``allowed``."""
+
+    def inside(module: str) -> bool:
+        return module == package or module.startswith(package + ".")
+
+    return [
+        f"{e.importer}:{e.line} imports {e.target}"
+        for e in edges
+        if inside(e.importer) and not inside(e.target) and e.target not in set(allowed)
+    ]
+
+
+def test_navigation_knows_only_the_arena():
+    """``sim.navigation`` (planning, distance fields, path following) reads the arena from
+    ``sim.scenario`` and nothing else of the world: no robots' state, no pymunk world."""
+    edges, _, readers = read_imports(package_sources())
+    assert "sim.navigation.planning" in readers and "sim.navigation.paths" in readers
+    assert reaches_outside(edges, "sim.navigation", {"sim.scenario"}) == []
+    assert any(e.importer.startswith("sim.navigation.") for e in edges)  # its own imports read
+
+
 def test_every_package_is_read():
     sources = package_sources()
     assert {_top(m) for m in sources} == set(LAYERS)
@@ -352,6 +374,22 @@ def test_checker_fails_on_matplotlib_in_physics_at_import_time():
     eager = check(_with(sim__world="from matplotlib import pyplot\n")).forbidden
     assert eager == ["sim.world:1 imports matplotlib at module level"]
     assert check(_with(allocation__auction=lazy.replace("matplotlib", "pymunk"))).forbidden
+
+
+def test_checker_fails_on_a_package_reaching_outside_what_it_may_know():
+    sources = _with(
+        sim__nav="",
+        sim__nav__plan="from sim.world import np\nfrom sim.nav import walk\n",
+        sim__nav__walk="def f():\n    from allocation.auction import x\n",
+    )
+    edges, _, _ = read_imports(sources)
+    assert reaches_outside(edges, "sim.nav", {"sim.world"}) == [
+        "sim.nav.walk:2 imports allocation.auction"
+    ]
+    assert reaches_outside(edges, "sim.nav", ()) == [
+        "sim.nav.plan:1 imports sim.world",
+        "sim.nav.walk:2 imports allocation.auction",
+    ]
 
 
 def test_no_environment_variable_changes_behaviour():

@@ -193,13 +193,14 @@ def bench_costs(
         ``{"1000": {"abstract_ms", "straight_ms", "distance_ms", "time_ms", ...}, ...}``: mean
         ms per round under the scenario's cost table, straight lines, planned distances and
         planned times; where the planner builds its distance field (from
-        ``sim.planning.FIELD_MIN_ROBOTS`` robots), ``field_build_s``, ``field_mib`` (held) and
-        ``field_peak_mib`` (tracemalloc peak while building), measured apart from the rounds.
+        ``sim.navigation.planning.FIELD_MIN_ROBOTS`` robots), ``field_build_s``, ``field_mib``
+        (held) and ``field_peak_mib`` (tracemalloc peak while building), measured apart from the
+        rounds.
     """
     from allocation.costs import DistanceCost, StraightLineCost, TimeCost
     from sim.bench_arena import bench_scenario
-    from sim.distfield import SHARED, DistanceField
-    from sim.planning import FIELD_MIN_ROBOTS, GridPlanner
+    from sim.navigation.distfield import SHARED, DistanceField
+    from sim.navigation.planning import FIELD_MIN_ROBOTS, GridPlanner
 
     rounds = {**SPATIAL_ROUNDS, **(rounds or {})}
     out: dict[str, dict[str, float]] = {}
@@ -267,7 +268,7 @@ def bench_assignment(
 
     from allocation.auction import priority_cost_matrix
     from sim.bench_arena import bench_scenario
-    from sim.planning import GridPlanner
+    from sim.navigation.planning import GridPlanner
 
     try:
         import lap

@@ -11,7 +11,7 @@
   of that arena are reported as ``busy_*`` members of the ``"10"`` row. ``bids_ms`` is the time
   the ``distance`` cost model takes to bid every robot on a paper-sized batch of 7 tasks,
   ``round_bids_ms`` / ``round_auction_ms`` what bidding and the auction took per round of the
-  timed loop. With 1000 robots the bids come from the distance field (``sim.distfield``),
+  timed loop. With 1000 robots the bids come from the distance field (``sim.navigation.distfield``),
   built during the warm-up: its build time, memory, ms per call for all robots x all 500 sites
   and x 50 sites against numpy straight lines, and its largest difference from the exact query
   are reported (``sim.bench_sim.field_report``);

@@ -1,8 +1,8 @@
 """The control period over numpy arrays: every robot in each array operation.
 
 For larger teams the cost of a control period is the arithmetic, and numpy does it over the
-robot axis (``sim.drive.DiffDriveController`` holds the vectorised law, ``sim.paths`` the path
-following). Checks that cannot fire yet are skipped until the earliest time they could (the
+robot axis (``sim.drive.DiffDriveController`` holds the vectorised law, ``sim.navigation.paths`` the
+path following). Checks that cannot fire yet are skipped until the earliest time they could (the
 schedule in ``sim.fleet``); per-robot Python runs on task events only (``sim.jobs``).
 """
 

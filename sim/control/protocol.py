@@ -17,7 +17,7 @@ from sim.drive import DiffDriveController
 from sim.fleet import FleetState, Schedule
 from sim.jobs import Jobs
 from sim.motors import Motors
-from sim.paths import PathFollower
+from sim.navigation.paths import PathFollower
 
 
 @dataclass(frozen=True, slots=True)

@@ -46,7 +46,7 @@ from sim.drive_law import (
 )
 from sim.fleet import PROGRESS_M
 from sim.jobs import RECOVERED_M, YIELD_TRIGGER_M
-from sim.paths import LOOKAHEAD_M
+from sim.navigation.paths import LOOKAHEAD_M
 from sim.recording import DRIVING, IDLE
 
 

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.buckets import MAX_CELLS, BoxBuckets, typical_size
+from sim.navigation.buckets import MAX_CELLS, BoxBuckets, typical_size
 
 coord = st.floats(-20.0, 40.0, allow_nan=False)
 box = st.tuples(coord, coord, st.floats(0.0, 6.0), st.floats(0.0, 6.0)).map(
@@ -70,8 +70,8 @@ def test_to_obstacle_over_grid_cells_is_the_full_pass_bit_for_bit(corners, seed)
     """``PathFollower.to_obstacle`` with the edge grid (``EdgeCells``) gives the very same
     vectors as a pass over every edge, for points inside, on cell borders and outside the
     grid, and for ties (points equally far from two edges: the first edge in both)."""
-    from sim.buckets import EdgeCells
-    from sim.paths import PathFollower
+    from sim.navigation.buckets import EdgeCells
+    from sim.navigation.paths import PathFollower
 
     rng = np.random.default_rng(seed)
     size = rng.uniform(0.2, 2.5, len(corners))
@@ -97,7 +97,7 @@ def test_edge_cells_list_few_edges_in_a_large_arena():
     query over 300 robots does a tenth of the arithmetic; the grid is not built for a handful
     of edges."""
     from sim.bench_arena import bench_scenario
-    from sim.paths import PathFollower
+    from sim.navigation.paths import PathFollower
 
     sp = bench_scenario(1000, np.random.default_rng(0), control_hz=10.0).spatial
     w, h = sp.width_m, sp.height_m

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from sim.bench_arena import bench_scenario
-from sim.distfield import SHARED, DistanceField, planner_obstacles
-from sim.planning import FIELD_MIN_ROBOTS, GridPlanner
-from sim.raster import FULL, NONE, PART, Grid, SightIndex, visibility
+from sim.navigation.distfield import SHARED, DistanceField, planner_obstacles
+from sim.navigation.planning import FIELD_MIN_ROBOTS, GridPlanner
+from sim.navigation.raster import FULL, NONE, PART, Grid, SightIndex, visibility
 from sim.scenario import DriveSpec, SpatialSpec
 
 BOX = ((8.0, 8.0), (12.0, 8.0), (12.0, 12.0), (8.0, 12.0))

@@ -524,7 +524,7 @@ def test_the_wall_screen_drops_only_robots_whose_lines_cannot_bind():
     from every robot, and the screen drops most of them."""
     from sim.control.avoidance import near_walls
     from sim.control.orca import steer_walls
-    from sim.paths import PathFollower
+    from sim.navigation.paths import PathFollower
 
     rng = np.random.default_rng(7)
     boxes = [

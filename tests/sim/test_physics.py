@@ -17,9 +17,9 @@ from allocation.auction import MarketAllocator
 from allocation.costs import make_cost_model
 from learning.episode import run_protocol
 from sim.drive import DiffDriveController
-from sim.paths import PathFollower
+from sim.navigation.paths import PathFollower
+from sim.navigation.planning import polygon_signed_distance
 from sim.physics import PymunkWorld
-from sim.planning import polygon_signed_distance
 from sim.recording import DRIVING, IDLE, WORKING, TrajectoryRecorder
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec, StreamSpec
 from sim.tasks import Batch, generate_stream

@@ -9,7 +9,7 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from sim.planning import GridPlanner, inflate, polygon_signed_distance
+from sim.navigation.planning import GridPlanner, inflate, polygon_signed_distance
 from sim.scenario import DriveSpec, SpatialSpec
 
 C = np.array([1.0, 1j])
@@ -184,7 +184,7 @@ def test_occupancy_grid_marks_obstacles_and_walls():
     assert planner.reachable([2.0, 2.0]) and not planner.reachable([10.0, 10.0])
 
 
-FIELD = tuple(  # 24 small boxes: single queries look at the buckets of a few (sim.buckets)
+FIELD = tuple(  # 24 small boxes: single queries look at the buckets of a few (navigation.buckets)
     ((x, y), (x + 1.2, y), (x + 1.2, y + 0.9), (x, y + 0.9))
     for x, y in itertools.product((1.5, 4.5, 7.5, 10.5, 13.5, 16.5), (2.0, 7.0, 12.0, 16.5))
 )
@@ -213,7 +213,7 @@ def test_blocked_in_small_chunks_decides_as_in_one(monkeypatch):
     """``blocked`` splits many segments into chunks of at most ``_CHUNK`` (segment, edge)
     entries: with chunks of a few segments, some meeting no obstacle at all, every segment is
     decided as in one chunk (and as ``blocked_one`` decides it)."""
-    import sim.planning
+    import sim.navigation.planning
 
     planner = GridPlanner(spatial((BOX, TRIANGLE)))
     rng = np.random.default_rng(5)
@@ -221,7 +221,7 @@ def test_blocked_in_small_chunks_decides_as_in_one(monkeypatch):
     b[::3] = a[::3] + 0.2  # short segments, most of them meeting no obstacle's box
     whole = planner.blocked(a, b)
     assert 50 < whole.sum() < 550
-    monkeypatch.setattr(sim.planning, "_CHUNK", 3 * 2 * planner.normals_.shape[1])
+    monkeypatch.setattr(sim.navigation.planning, "_CHUNK", 3 * 2 * planner.normals_.shape[1])
     np.testing.assert_array_equal(planner.blocked(a, b), whole)  # chunks of three segments
     single = [planner.blocked_one(*p, *q) for p, q in zip(a.tolist(), b.tolist(), strict=True)]
     assert single == whole.tolist()

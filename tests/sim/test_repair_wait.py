@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 
 from sim.jobs import REPAIR_WAIT_S
-from sim.planning import GridPlanner
+from sim.navigation.planning import GridPlanner
 from tests.sim.test_jobs import GAP, at, give, make_world, waypoints
 
 PLUG = ((9.8, 4.5), (10.2, 4.5), (10.2, 5.5), (9.8, 5.5))  # broken robots fill the gap

@@ -226,7 +226,7 @@ def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_pa
     """More than LOCAL_MIN_VERTICES obstacle vertices: the throwaway planner keeps only the
     obstacles near the start, the goal and the robots; round one robot in open floor that
     gives the path the whole arena gives."""
-    import sim.planning as planning
+    import sim.navigation.planning as planning
     from sim.scenario import DriveSpec, SpatialSpec
 
     boxes = tuple(

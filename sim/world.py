@@ -93,6 +93,9 @@ class AbstractWorld:
     With a ``[faults]`` table (``sim.faults``) a robot that breaks gives up its task (an
     :class:`Abandon`, collected with :meth:`take_abandoned`) and is neither free nor bid for
     until it is repaired; its estimated end of business is the end of the repair.
+
+    A new world is reset with ``np.random.default_rng(0)``; the experiment loop resets it with
+    the run's world generator.
     """
 
     def __init__(self, scenario: Scenario) -> None:
@@ -142,11 +145,11 @@ class AbstractWorld:
 
     def drain(self) -> list[Completion]:
         if self.faults is not None:
-            out = []
-            while self.jobs_:  # a failure on the way abandons a task: go on to the others
-                end = max(self.time_s_, max(float(self.busy_until_s_[j]) for j in self.jobs_))
-                out += self._advance_faults(end)
-            return out
+            if not self.jobs_:
+                return []
+            # to the last end: a failure on the way abandons its task, the others end in time
+            end = max(self.time_s_, max(float(self.busy_until_s_[j]) for j in self.jobs_))
+            return self._advance_faults(end)
         self.time_s_ = max(self.time_s_, float(self.busy_until_s_.max(initial=0.0)))
         return self._collect(lambda j: True)
 

@@ -120,7 +120,7 @@ class FaultModel:
         broke, fixed = [], []
         while True:
             t_next = self.next_event_s()
-            if t_next > t_s:
+            if t_next > t_s or t_next == np.inf:  # inf: nothing is ever due, even by t_s = inf
                 return broke, fixed
             due_fix = np.flatnonzero(self.broken_until_s == t_next).tolist()
             for j in due_fix:
@@ -163,7 +163,11 @@ class FaultModel:
         }
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
-        """Inverse of :meth:`state_arrays`."""
+        """Inverse of :meth:`state_arrays`; a state for another number of robots is refused
+        before anything changes."""
+        n = np.asarray(arrays["next_fail_s"]).size
+        if n != self.m:
+            raise ValueError(f"fault state for {n} robots, not {self.m}")
         self.next_fail_s = np.asarray(arrays["next_fail_s"], dtype=float).copy()
         self.broken_until_s = np.asarray(arrays["broken_until_s"], dtype=float).copy()
         self.broke_at_s = np.asarray(arrays["broke_at_s"], dtype=float).copy()
@@ -174,8 +178,6 @@ class FaultModel:
         rng = np.random.Generator(getattr(np.random, state["bit_generator"])())
         rng.bit_generator.state = state
         self.rng = rng
-        if self.next_fail_s.size != self.m:
-            raise ValueError(f"fault state for {self.next_fail_s.size} robots, not {self.m}")
 
 
 def build_faults(scenario) -> FaultModel | None:

@@ -16,7 +16,7 @@ from matplotlib.colors import to_rgb
 from matplotlib.path import Path as MplPath
 from PIL import Image
 
-from sim.recording import DRIVING, IDLE, WAITING, WORKING, Trajectory, shown_states
+from sim.recording import DRIVING, IDLE, WAITING, WORKING, Trajectory
 from sim.render import frame_times, render_frame, render_frames, render_gif, render_mp4
 from sim.render.scene import FrameScene
 from sim.render.style import STATE_FILL, WAIT_RING, type_colours
@@ -480,11 +480,3 @@ def test_a_waiting_robot_is_light_grey_and_ringed(hand, scene):
     dark = [after[int(ring[1]) + d, int(ring[0])].astype(int).sum() for d in (-1, 0, 1)]
     light = [before[int(ring[1]) + d, int(ring[0])].astype(int).sum() for d in (-1, 0, 1)]
     assert min(dark) < 400 and min(light) > 600
-
-
-def test_recorded_states_show_a_driving_robot_that_decided_to_wait_as_waiting():
-    state = np.array([DRIVING, DRIVING, WORKING, IDLE, DRIVING], dtype=np.int8)
-    t_progress = np.array([12.0, 10.0, 30.0, np.inf, np.inf])
-    got = shown_states(state, t_progress, 10.0)
-    assert got.tolist() == [WAITING, DRIVING, WORKING, IDLE, WAITING]
-    assert got.dtype == np.int8

@@ -231,3 +231,86 @@ def test_head_on_in_a_single_lane_is_counted_as_head_on():
     robots = [c for c in CAUSES if c.startswith("robot_") or c == "queue"]
     assert all(solo[f"still_s_{c}"] == 0.0 for c in robots)
     assert solo["driving_s"] > 5.0
+
+
+# -- the cases the tests above left open (a mutation screen found them) ----------------------
+def test_nearest_other_of_a_lone_robot_is_none():
+    other, dist = nearest_other(np.array([3 + 4j]), np.array([0]))
+    assert other.dtype.kind == "i" and other.tolist() == [0] and dist.tolist() == [np.inf]
+
+
+def test_nearest_other_in_a_large_team_beyond_near_m_is_none_and_up_to_64_the_true_one():
+    grid = np.array([complex(x, y) for x in range(8) for y in range(8)]) * 2.0  # 64, 2 m apart
+    other, dist = nearest_other(grid, np.array([0, 9]))
+    assert dist.tolist() == [2.0, 2.0] and other.tolist() == [1, 1]  # all distances: the nearest
+    big = np.concatenate([grid, [100 + 100j]])  # 65: the k-d tree, within NEAR_M only
+    other, dist = nearest_other(big, np.array([0, 64]))
+    assert other.tolist() == [0, 0] and dist.tolist() == [np.inf, np.inf]
+    big[1] = 0.5j  # now robot 1 is 0.5 m from robot 0
+    other, dist = nearest_other(big, np.array([0, 1]))
+    assert other.tolist() == [1, 0] and dist.tolist() == [0.5, 0.5]
+
+
+def test_of_two_equally_near_robots_the_first_is_the_cause(counting):
+    d, w, i = DRIVING, WORKING, IDLE
+    meter = StallMeter(0.1)
+    xy = [(5, 5), (5, 5.6), (5, 4.4)]  # robot 1 (working) and 2 (idle) both 0.6 m away
+    meter.sample(_fleet([d, w, i], [0, 0, 0], xy, [0, 0, 0]), np.zeros(3, bool))
+    assert meter.still.tolist()[CAUSES.index("robot_at_work")] == 1
+
+
+@pytest.mark.parametrize(
+    ("a_deg", "b_deg", "cause"),
+    [
+        (90.0, 90.0, "robot_same_way"),  # the difference counts, not the sum
+        (0.0, 135.0, "robot_crossing"),  # exactly 135 degrees is not yet head-on
+        (0.0, 45.0, "robot_crossing"),  # exactly 45 degrees is not yet the same way
+    ],
+)
+def test_the_angle_between_headings_decides_head_on_crossing_or_same_way(
+    counting, a_deg, b_deg, cause
+):
+    d = DRIVING
+    meter = StallMeter(0.1)
+    meter.sample(_fleet([d, d], [0.0, 1.0], [(1, 1), (1.5, 1)], [a_deg, b_deg]), np.zeros(2, bool))
+    assert meter.still.tolist() == [int(c == cause) for c in CAUSES]
+
+
+def test_robots_outside_the_arena_count_in_the_cells_at_its_border(counting):
+    d = DRIVING
+    meter = StallMeter(0.1, width_m=2.0, height_m=1.0)
+    xy = [(-0.7, -0.6), (0.2, 0.2), (2.4, 1.3), (1.2, 0.7)]  # x, y < -0.5 m: below cell 0
+    meter.sample(_fleet([d] * 4, [0.0] * 4, xy, [0.0] * 4), np.zeros(4, bool))
+    cells = meter.seconds_map().sum(axis=0)  # every cause
+    assert cells.shape == (2, 4)
+    assert (cells / 0.1).round().astype(int).tolist() == [[2, 0, 0, 0], [0, 0, 1, 1]]
+
+
+def test_a_meter_without_an_arena_keeps_no_map_and_a_small_arena_has_cells():
+    assert StallMeter(0.1).seconds_map().shape == (len(CAUSES), 0, 0)
+    assert StallMeter(0.1, 0.8, 0.6).seconds_map().shape == (len(CAUSES), 2, 2)
+
+
+def test_counts_are_integers_from_a_fresh_meter_a_sampled_one_and_an_old_checkpoint(counting):
+    d = DRIVING
+    meter = StallMeter(0.1, 4.0, 4.0)
+    for name, a in meter.state_arrays().items():
+        assert a.dtype == np.int64, name
+    meter.sample(_fleet([d, d], [0.0, 0.0], [(1, 1), (1.5, 1)], [0, 90]), np.zeros(2, bool))
+    for name, a in meter.state_arrays().items():
+        assert a.dtype == np.int64, name
+    old = StallMeter(0.1, 4.0, 4.0)
+    old.restore_arrays({"still": np.arange(len(CAUSES), dtype=float)})  # before stands counted
+    for name, a in old.state_arrays().items():
+        assert a.dtype == np.int64, name
+    assert old.state_arrays()["still"].tolist() == list(range(len(CAUSES)))
+
+
+def test_driving_adds_up_over_periods_and_one_period_standing_is_all_of_it(counting):
+    d = DRIVING
+    meter = StallMeter(0.1)
+    meter.sample(_fleet([d, IDLE], [0.0, 0.0], [(1, 1), (9, 9)], [0, 0]), np.zeros(2, bool))
+    assert meter.summary()["still_share"] == 1.0  # one robot-period driving, standing
+    meter.sample(_fleet([d, d], [1.0, 0.0], [(1, 1), (9, 9)], [0, 0]), np.zeros(2, bool))
+    assert meter.driving == 3 and meter.summary()["driving_s"] == pytest.approx(0.3)
+    assert meter.summary()["still_share"] == pytest.approx(2 / 3)

@@ -25,6 +25,17 @@ def fleet(headings=HEADINGS, starts=STARTS, buffer=None) -> tuple[pymunk.Space, 
     return space, Motors(space, DRIVE, starts, ROBOT, headings, buffer)
 
 
+def drive(space: pymunk.Space, mo: Motors, steps: int, v, w) -> None:
+    """``steps`` physics steps of 1/60 s, the command (v, w) written from the pose read every
+    sixth step (a 0.1 s control period)."""
+    for k in range(steps):
+        rob = mo.read()
+        if k % 6 == 0:
+            z, th = rob["z"].copy(), rob["th"].copy()
+            mo.write(z, th, np.exp(1j * th), np.array(v), np.array(w))
+        space.step(1.0 / 60.0)
+
+
 def test_robots_are_circles_with_the_drive_s_mass_and_tyres():
     space, mo = fleet()
     assert len(mo.bodies) == 3 and len(mo.pivots) == 3
@@ -130,12 +141,7 @@ def test_a_flat_arc_is_driven_straight():
 
 def test_driven_robots_follow_their_arcs_without_sliding():
     space, mo = fleet()
-    for _ in range(60):  # 1 s of 60 Hz steps, the command rewritten every 6 steps
-        rob = mo.read()
-        if _ % 6 == 0:
-            z, th = rob["z"].copy(), rob["th"].copy()
-            mo.write(z, th, np.exp(1j * th), np.array([1.0, 0.5, 0.0]), np.array([0.0, 0.25, 2.0]))
-        space.step(1.0 / 60.0)
+    drive(space, mo, 60, [1.0, 0.5, 0.0], [0.0, 0.25, 2.0])  # 1 s
     rob = mo.read()
     # robot 0 straight along +x, robot 1 on the circle of radius 2 about (2, 2), robot 2 turns
     assert rob["z"][0].imag == pytest.approx(2.0, abs=1e-6) and rob["z"][0].real > 1.5
@@ -166,12 +172,7 @@ def test_write_one_commands_one_robot_as_write_does():
 
 def test_a_checkpoint_puts_fresh_bodies_where_the_old_ones_were():
     space, mo = fleet()
-    for k in range(30):
-        rob = mo.read()
-        if k % 6 == 0:
-            z, th = rob["z"].copy(), rob["th"].copy()
-            mo.write(z, th, np.exp(1j * th), np.array([1.0, 0.5, 0.2]), np.array([0.0, 0.25, 2.0]))
-        space.step(1.0 / 60.0)
+    drive(space, mo, 30, [1.0, 0.5, 0.2], [0.0, 0.25, 2.0])
     saved = mo.state_arrays()
     _, fresh = fleet(headings=None, starts=np.zeros((3, 2)))
     fresh.restore_arrays(saved)

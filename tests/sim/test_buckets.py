@@ -106,3 +106,23 @@ def test_edge_cells_list_few_edges_in_a_large_arena():
     assert fol.cells_.table.shape[1] <= len(fol.edge0_) // 10
     small = PathFollower(4, 1.0, walls, 0.25)
     assert small.cells_ is None
+
+
+def test_segment_distances_of_short_and_long_segments_against_sampled_points():
+    """The point-to-segment distances EdgeCells keeps edges by, for segments from 1 mm to
+    10 m (shorter than 1 m too, where a wrong normalisation would still pass long ones)."""
+    from sim.navigation.buckets import _segment_distances
+
+    rng = np.random.default_rng(4)
+    e0 = rng.uniform(0, 10, 40) + 1j * rng.uniform(0, 10, 40)
+    length = np.geomspace(1e-3, 10.0, 40)
+    e1 = e0 + length * np.exp(1j * rng.uniform(-np.pi, np.pi, 40))
+    p = rng.uniform(-2, 12, 50) + 1j * rng.uniform(-2, 12, 50)
+    got = _segment_distances(p, e0, e1)
+    s = np.linspace(0.0, 1.0, 20001)
+    sampled = np.abs(e0[None, :, None] + s * (e1 - e0)[None, :, None] - p[:, None, None]).min(
+        axis=2
+    )
+    assert got.shape == (50, 40)
+    np.testing.assert_allclose(got, sampled, rtol=0, atol=0.5 * 10.0 / 20000)  # half a sample
+    assert _segment_distances(np.array([3 + 4j]), np.array([0j]), np.array([0j]))[0, 0] == 5.0

@@ -20,7 +20,6 @@ Layout (keys of the ``.npz``):
 from __future__ import annotations
 
 import json
-import os
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from learning.qtable import HistoryQTable
+from sim.atomic import atomic_open
 
 FORMAT = "expt-mrta-checkpoint/1"
 EXPERIENCE_ARRAYS = ("eta_", "mu_", "v_", "v_sum_", "count_", "behaviour_")
@@ -95,19 +95,10 @@ def save_checkpoint(path: Path, arrays: dict[str, np.ndarray], meta: dict[str, A
     """Write arrays + metadata atomically: temporary file, fsync, rename, fsync the folder."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
     doc = {"format": FORMAT, **meta}
     payload = {"meta": np.array(json.dumps(doc)), **arrays}
-    with tmp.open("wb") as fh:
+    with atomic_open(path, "wb", sync_folder=True) as fh:
         np.savez(fh, **payload)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    dir_fd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
 
 
 def load_checkpoint(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:

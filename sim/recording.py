@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.atomic import atomic_open
+
 IDLE, DRIVING, WORKING = 0, 1, 2
 WAITING = 3  # recorded only (never in the fleet state): driving, but decided to wait (holding
 # in a site's queue, for a robot at work to finish): its stuck clock is stopped
@@ -48,10 +50,8 @@ class Trajectory:
 
     def save(self, path: Path) -> None:
         """Write an ``.npz`` atomically (temporary file, then rename)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp.npz")
-        np.savez_compressed(tmp, **{k: getattr(self, k) for k in self.__dataclass_fields__})
-        tmp.replace(path)
+        with atomic_open(Path(path), "wb") as fh:
+            np.savez_compressed(fh, **{k: getattr(self, k) for k in self.__dataclass_fields__})
 
     @classmethod
     def load(cls, path: Path) -> Trajectory:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.atomic import atomic_open
 from sim.scenario import Scenario
 
 STREAM_COLUMNS = ("id", "set", "round", "type", "high", "x", "y")
@@ -107,22 +108,22 @@ def save_stream(stream: TaskStream, path: Path) -> None:
     """Write a stream as JSON (``.json``) or CSV (any other suffix), atomically."""
     path = Path(path)
     cols = stream.to_columns()
-    tmp = path.with_name(path.name + ".tmp")
     if path.suffix == ".json":
         doc = {
             "n_sets": stream.n_sets,
             "rounds_per_set": stream.rounds_per_set,
             "columns": {k: [_jsonable(x) for x in v.tolist()] for k, v in cols.items()},
         }
-        tmp.write_text(json.dumps(doc))
-    else:
-        with tmp.open("w", newline="") as fh:
-            fh.write(f"# n_sets={stream.n_sets} rounds_per_set={stream.rounds_per_set}\n")
-            writer = csv.writer(fh)
-            writer.writerow(STREAM_COLUMNS)
-            for row in zip(*(cols[c].tolist() for c in STREAM_COLUMNS), strict=True):
-                writer.writerow(["" if isinstance(v, float) and np.isnan(v) else v for v in row])
-    tmp.replace(path)
+        text = json.dumps(doc)
+        with atomic_open(path) as fh:
+            fh.write(text)
+        return
+    with atomic_open(path, newline="") as fh:
+        fh.write(f"# n_sets={stream.n_sets} rounds_per_set={stream.rounds_per_set}\n")
+        writer = csv.writer(fh)
+        writer.writerow(STREAM_COLUMNS)
+        for row in zip(*(cols[c].tolist() for c in STREAM_COLUMNS), strict=True):
+            writer.writerow(["" if isinstance(v, float) and np.isnan(v) else v for v in row])
 
 
 def _jsonable(x: float | int) -> float | int | None:

@@ -9,13 +9,13 @@ market baseline completes about 77 % of the tasks (SPEC §1: resources must be s
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from scenarios.bench.alloc import synthetic_scenario
+from sim.atomic import atomic_open
 from sim.scenario import StreamSpec
 
 SEED = 1000
@@ -75,9 +75,9 @@ def scale_toml(seed: int = SEED) -> str:
 
 def main() -> int:
     out = Path(__file__).with_name("scale1000.toml")
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(scale_toml())
-    os.replace(tmp, out)
+    text = scale_toml()
+    with atomic_open(out) as fh:
+        fh.write(text)
     print(f"wrote {out}")
     return 0
 

@@ -1,4 +1,5 @@
-"""Output files written atomically: a temporary file beside the target, then a rename.
+"""Output files written atomically (``sim.atomic``: a temporary file beside the target,
+fsync, then a rename).
 
 An interrupted command never leaves a half-written ``metrics.json``, CSV or summary behind.
 """
@@ -8,23 +9,21 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from sim.atomic import atomic_open
+
 
 def write_csv_atomic(path: Path, columns: dict[str, list]) -> None:
     """Write equal-length columns as CSV (``tasks.csv``) via a temporary file and a rename."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="") as fh:
+    with atomic_open(path, newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(list(columns))
         writer.writerows(zip(*columns.values(), strict=True))
-    os.replace(tmp, path)
 
 
 def strict_json(doc: Any) -> Any:
@@ -52,13 +51,10 @@ def write_json_atomic(path: Path, doc: Any) -> None:
     """Write strict JSON via a temporary file, fsync and rename: never a half-written file."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w") as fh:
-        json.dump(strict_json(doc), fh, indent=1, allow_nan=False)
-        fh.write("\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    doc = strict_json(doc)
+    text = json.dumps(doc, indent=1, allow_nan=False) + "\n"
+    with atomic_open(path) as fh:
+        fh.write(text)
 
 
 def write_npz_atomic(path: Path, arrays: dict[str, np.ndarray]) -> None:
@@ -66,25 +62,17 @@ def write_npz_atomic(path: Path, arrays: dict[str, np.ndarray]) -> None:
     loads with ``allow_pickle=False``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.npz")
     for name, value in arrays.items():
         if np.asarray(value).dtype == object:
             raise TypeError(f"{path.name}/{name}: object arrays need pickle")
-    with tmp.open("wb") as fh:
+    with atomic_open(path, "wb") as fh:
         np.savez_compressed(fh, **arrays)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
 
 
 def write_rows_atomic(path: Path, header: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
     """Write a header and rows as CSV, lines ending in ``\\n`` (``runs.csv``), through a
     temporary file, fsync and rename."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="") as fh:
+    with atomic_open(path, newline="") as fh:
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(header)
         writer.writerows(rows)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)

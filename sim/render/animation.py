@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.atomic import replacing
 from sim.recording import Trajectory
 from sim.render.frames import check_size, frame_scene, frame_times, render_frames
 from sim.render.scene import FrameScene
@@ -95,10 +96,6 @@ def _palette(scene: FrameScene, times: np.ndarray):
     return pal
 
 
-def _tmp_beside(path: Path, suffix: str) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
-
-
 def render_gif(
     traj: Trajectory,
     path: str | os.PathLike,
@@ -139,8 +136,7 @@ def render_gif(
         if on_frame is not None:
             on_frame()
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _tmp_beside(path, ".gif")
-    try:
+    with replacing(path, ".gif") as tmp:
         # optimize=True: unchanged pixels become transparent, which halves the file at 600x600
         # and costs no measurable time (palette re-ordering only runs below 512x512 pixels).
         images[0].save(
@@ -152,9 +148,6 @@ def render_gif(
             loop=0,
             optimize=True,
         )
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path
 
 
@@ -190,35 +183,34 @@ def render_mp4(
     )
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _tmp_beside(path, ".mp4")
-    cmd = [
-        ffmpeg,
-        "-y",
-        "-loglevel",
-        "error",
-        "-f",
-        "rawvideo",
-        "-pix_fmt",
-        "rgb24",
-        "-s",
-        f"{width}x{height}",
-        "-r",
-        f"{fps:g}",
-        "-i",
-        "-",
-        "-vf",
-        "pad=ceil(iw/2)*2:ceil(ih/2)*2:color=white",  # yuv420p needs even sides
-        "-c:v",
-        "libx264",
-        "-pix_fmt",
-        "yuv420p",
-        "-crf",
-        str(int(crf)),
-        "-f",
-        "mp4",
-        str(tmp),
-    ]
-    try:
+    with replacing(path, ".mp4") as tmp:
+        cmd = [
+            ffmpeg,
+            "-y",
+            "-loglevel",
+            "error",
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "rgb24",
+            "-s",
+            f"{width}x{height}",
+            "-r",
+            f"{fps:g}",
+            "-i",
+            "-",
+            "-vf",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2:color=white",  # yuv420p needs even sides
+            "-c:v",
+            "libx264",
+            "-pix_fmt",
+            "yuv420p",
+            "-crf",
+            str(int(crf)),
+            "-f",
+            "mp4",
+            str(tmp),
+        ]
         with subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=subprocess.PIPE) as proc:
             try:
                 for frame in stream:
@@ -231,7 +223,4 @@ def render_mp4(
             proc.wait()
         if proc.returncode != 0:
             raise RuntimeError(f"ffmpeg failed (exit {proc.returncode}): {err.strip()}")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path

@@ -144,16 +144,15 @@ def inside_rows(normals: np.ndarray, offsets: np.ndarray, grid: Grid, margin_m: 
     return np.maximum(first, 0), np.minimum(last, nx - 1)
 
 
-def paint(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, n_out: int, grid: Grid, weight=None):
-    """(n_out, ny, nx) count of the ranges covering each cell (or the sum of their
-    ``weight``); range r belongs to ``owner[r]``."""
+def paint(lo: np.ndarray, hi: np.ndarray, owner: np.ndarray, n_out: int, grid: Grid):
+    """(n_out, ny, nx) count of the column ranges [lo, hi] (R, ny) covering each cell;
+    range r belongs to ``owner[r]``."""
     width = grid.nx + 1
     r, row = np.nonzero(lo <= hi)
     base = (owner[r] * grid.ny + row) * width
     size = n_out * grid.ny * width
-    w = None if weight is None else weight[r]
-    diff = np.bincount(base + lo[r, row], w, minlength=size)
-    diff -= np.bincount(base + hi[r, row] + 1, w, minlength=size)
+    diff = np.bincount(base + lo[r, row], minlength=size)
+    diff -= np.bincount(base + hi[r, row] + 1, minlength=size)
     return np.cumsum(diff.reshape(n_out, grid.ny, width), axis=2)[..., : grid.nx]
 
 

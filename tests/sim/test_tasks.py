@@ -179,3 +179,28 @@ def test_abstract_tasks_have_no_site(paper):
     stream = generate_stream(paper, np.random.default_rng(0))
     assert stream.sites.dtype == float and stream.sites.shape == (len(stream), 2)
     assert np.isnan(stream.sites).all()
+
+
+def test_batches_give_each_round_of_a_set_in_order_with_its_rows():
+    """A hand-made stream of 2 sets x 3 rounds (set 1, round 1 empty): each batch holds the
+    stream's row ids of its round, and their types, priorities and sites."""
+    stream = TaskStream(
+        set_index=np.array([0, 0, 0, 0, 1, 1, 1]),
+        round_index=np.array([0, 0, 1, 2, 0, 2, 2]),
+        types=np.array([2, 0, 1, 1, 0, 2, 1]),
+        high=np.array([True, False, False, True, True, False, False]),
+        sites=np.arange(14, dtype=float).reshape(7, 2),
+        n_sets=2,
+        rounds_per_set=3,
+    )
+    assert len(stream) == 7
+    got = list(stream.batches(1))
+    assert [(b.set_index, b.round_index, len(b)) for b in got] == [(1, 0, 1), (1, 1, 0), (1, 2, 2)]
+    last = got[2]
+    assert last.ids.tolist() == [5, 6] and last.types.tolist() == [2, 1]
+    assert last.high.tolist() == [False, False] and last.sites.tolist() == [[10, 11], [12, 13]]
+    first = list(stream.batches(0))
+    assert [b.ids.tolist() for b in first] == [[0, 1], [2], [3]]
+    assert first[0].types.tolist() == [2, 0] and first[0].high.tolist() == [True, False]
+    assert first[0].sites.tolist() == [[0, 1], [2, 3]]
+    assert [len(b) for b in stream.batches(2)] == [0, 0, 0]  # no such set: empty rounds

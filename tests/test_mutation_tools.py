@@ -183,3 +183,45 @@ def test_the_screen_refuses_tests_that_fail_with_no_mutant_on(tmp_path, monkeypa
     assert screen.load() == {  # the one mutant not run by mutmut, screened end to end
         "sim.control.orca.x_command__mutmut_2": {"result": "survived", "hash": "bbb"}
     }
+
+
+def test_equivalents_of_a_changed_function_are_not_counted_until_read_again(
+    tmp_path, monkeypatch, capsys
+):
+    """mutmut renumbers a changed function's mutants, so an entry of ``equivalent.toml`` may
+    then name another mutation: entries count only while their function's hash is the one
+    recorded when they were read, and ``--record-hashes`` records it again."""
+    score = load("score")
+    fake_mutants(tmp_path / "mutants")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(score, "HASHES", tmp_path / "hashes.json")
+    equiv = {
+        "sim.control.orca.x_solve__mutmut_2": "why",
+        "sim.control.orca.x_command__mutmut_1": "why",
+        "sim.other.x_gone__mutmut_1": "a module not generated here: kept",
+    }
+    (tmp_path / "hashes.json").write_text(json.dumps({"sim.control.orca.x_solve": "aaa"}))
+    hashes = score.function_hashes(Path("mutants"))
+    keep, lines = score.reviewed(equiv, hashes)
+    assert set(keep) == {"sim.control.orca.x_solve__mutmut_2", "sim.other.x_gone__mutmut_1"}
+    assert lines == [
+        "function changed since its 1 entries were read (not counted): sim.control.orca.x_command"
+    ]
+    (tmp_path / "hashes.json").write_text(json.dumps({"sim.control.orca.x_solve": "old"}))
+    keep, lines = score.reviewed(equiv, hashes)
+    assert set(keep) == {"sim.other.x_gone__mutmut_1"} and len(lines) == 2
+    monkeypatch.setattr(score, "equivalent", lambda: equiv)
+    assert score.record_hashes(["*x_command"]) == 0
+    recorded = json.loads((tmp_path / "hashes.json").read_text())
+    assert recorded == {"sim.control.orca.x_solve": "old", "sim.control.orca.x_command": "bbb"}
+    assert "recorded 1 function hashes" in capsys.readouterr().out
+
+
+def test_the_score_reports_an_equivalent_the_screen_killed(tmp_path, monkeypatch):
+    score = load("score")
+    fake_mutants(tmp_path / "mutants")
+    monkeypatch.chdir(tmp_path)
+    runs = {"m": {"sim.control.orca.x_command__mutmut_2": score.SCREEN_CODES["killed"]}}
+    assert score.stale(runs, {"sim.control.orca.x_command__mutmut_2": "why"}) == [
+        "killed, yet listed as equivalent: sim.control.orca.x_command__mutmut_2"
+    ]

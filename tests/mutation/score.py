@@ -14,6 +14,14 @@ the golden tests) counts as killed, and the "by golden" column says how many of 
 Mutants mutmut has not run take the result of ``tests/mutation/screen.py`` where it has one
 (killed by the screen's tests; one that survived the screen counts as a survivor, so the score
 of a screened module is a lower bound), and the "screened" column says how many.
+
+mutmut numbers mutants within their function, so when a function changes its numbers shift and
+an entry of ``equivalent.toml`` may name another mutation. ``equivalent-hashes.json`` keeps the
+hash of each function as it was when its entries were read; an entry of a function whose hash
+differs now is not counted as equivalent (it takes its run's result) and is reported, until it
+is read again and the hash recorded::
+
+    python tests/mutation/score.py --record-hashes "sim.tasks.x_save_stream"
 """
 
 from __future__ import annotations
@@ -33,6 +41,51 @@ def equivalent() -> dict[str, str]:
     """Mutant name -> why it cannot be killed."""
     with open(HERE / "equivalent.toml", "rb") as f:
         return tomllib.load(f)["equivalent"]
+
+
+HASHES = HERE / "equivalent-hashes.json"
+
+
+def function_of(name: str) -> str:
+    """``sim.tasks.x_save_stream__mutmut_7`` -> ``sim.tasks.x_save_stream``."""
+    return name.rsplit("__mutmut_", 1)[0]
+
+
+def reviewed(equiv: dict[str, str], hashes: dict[str, str]) -> tuple[dict[str, str], list[str]]:
+    """The entries of ``equiv`` whose function is as it was when they were read, and a line
+    for each function that changed since (its entries are left out until read again)."""
+    recorded = json.loads(HASHES.read_text()) if HASHES.exists() else {}
+    keep, changed = {}, Counter()
+    for name, why in equiv.items():
+        fn = function_of(name)
+        now = hashes.get(fn)
+        if now is not None and recorded.get(fn) != now:
+            changed[fn] += 1
+        else:
+            keep[name] = why
+    lines = [
+        f"function changed since its {n} entries were read (not counted): {fn}"
+        for fn, n in sorted(changed.items())
+    ]
+    return keep, lines
+
+
+def record_hashes(patterns: list[str], root: Path = Path("mutants")) -> int:
+    """Record the current hash of the functions matching ``patterns`` (after reading their
+    entries in ``equivalent.toml`` again)."""
+    import fnmatch
+
+    hashes = function_hashes(root)
+    recorded = json.loads(HASHES.read_text()) if HASHES.exists() else {}
+    fns = {function_of(n) for n in equivalent()}
+    done = sorted(
+        fn for fn in fns if fn in hashes and any(fnmatch.fnmatch(fn, p) for p in patterns)
+    )
+    for fn in done:
+        recorded[fn] = hashes[fn]
+    HASHES.write_text(json.dumps(dict(sorted(recorded.items())), indent=1) + "\n")
+    print(f"recorded {len(done)} function hashes")
+    return 0
 
 
 def results(root: Path = Path("mutants")) -> dict[str, dict[str, int | None]]:
@@ -116,9 +169,10 @@ def tally(codes: dict[str, int | None], equiv: dict[str, str], golden=frozenset(
 
 
 def stale(runs: dict[str, dict[str, int | None]], equiv: dict[str, str]) -> list[str]:
-    """Entries of ``equivalent.toml`` that are wrong now: a mutant a test killed (so it is not
-    equivalent), or a name that no mutated module has any more (mutant names are numbered
-    within their function and shift when it changes) -- only for modules that were run."""
+    """Entries of ``equivalent.toml`` that are wrong now: a mutant a test (or the screen)
+    killed, so it is not equivalent, or a name that no mutated module has any more (mutant
+    names are numbered within their function and shift when it changes) -- only for modules
+    that were run."""
     out = []
     for codes in runs.values():
         if not any(code is not None for code in codes.values()):
@@ -133,7 +187,10 @@ def stale(runs: dict[str, dict[str, int | None]], equiv: dict[str, str]) -> list
 
 
 def main(argv: list[str]) -> int:
-    equiv, golden, screen = equivalent(), golden_kills(), screened()
+    if argv[:1] == ["--record-hashes"]:
+        return record_hashes(argv[1:] or ["*"])
+    golden, screen = golden_kills(), screened()
+    equiv, changed = reviewed(equivalent(), function_hashes(Path("mutants")))
     cols = ("killed", "by golden", "survived", "equivalent", "timeout", "not run", "other")
     print(f"{'module':30s} " + " ".join(f"{c:>10s}" for c in cols) + "      score   screened")
     for module, mutmut_codes in results().items():
@@ -148,7 +205,8 @@ def main(argv: list[str]) -> int:
             for name, code in codes.items():
                 if code in SURVIVED and name not in equiv and name not in golden:
                     print(f"    survived: {name}")
-    for line in stale(results(), equiv):
+    runs = {m: with_screen(codes, screen) for m, codes in results().items()}
+    for line in changed + stale(runs, equiv):
         print(f"equivalent.toml: {line}")
     return 0
 

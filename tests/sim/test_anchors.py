@@ -1,0 +1,215 @@
+"""The distance field's parts (`sim.navigation.anchors`, the helpers of
+`sim.navigation.distfield`), each against numbers worked by hand.
+
+`tests/sim/test_distfield.py` checks the whole field against the planner: exact distances.
+The pruning here only ever drops candidates for a proof, so a part that prunes less (a wedge
+too wide, an edge direction wrong the safe way) still gives exact distances there; these tests
+pin the parts themselves.
+"""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from sim.navigation.anchors import (
+    MARGIN_M,
+    WEDGE_SLACK_RAD,
+    _write,
+    edge_directions,
+    next_points,
+    outside_wedge,
+    run_starts,
+    taut_wedges,
+)
+from sim.navigation.distfield import (
+    DistanceField,
+    FieldCache,
+    _grid,
+    _in_box,
+    _within_box,
+)
+from sim.navigation.raster import Grid
+
+# -- anchors -----------------------------------------------------------------------------
+
+
+def test_run_starts():
+    assert run_starts(np.array([3, 3, 5, 5, 5, 2, 3])).tolist() == [0, 2, 5, 6]
+    assert run_starts(np.array([7])).tolist() == [0]
+    empty = run_starts(np.array([], dtype=np.int32))
+    assert empty.size == 0 and empty.dtype == np.int64
+
+
+def test_write_sets_a_block_of_cells_of_one_site():
+    codes = np.zeros((2, 4, 4), dtype=np.int16)
+    _write(codes, 1, np.array([1]), np.array([1]), np.array([0]), 7)  # 2 x 2 cells
+    want = np.zeros((2, 4, 4), dtype=np.int16)
+    want[1, 0:2, 2:4] = 7
+    assert (codes == want).all()
+    _write(codes, 0, np.array([0, 0]), np.array([3, 0]), np.array([3, 1]), np.int16(5))
+    want[0, 3, 3] = want[0, 1, 0] = 5
+    assert (codes == want).all()
+    _write(codes, 2, np.array([], dtype=int), np.array([], dtype=int), np.array([], dtype=int), 9)
+    assert (codes == want).all()
+
+
+def _square_planner(free=None):
+    """A 2 m x 1 m rectangle, counter-clockwise from (0, 0)."""
+    poly = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]])
+    ok = np.ones(4, dtype=bool) if free is None else np.asarray(free)
+    return SimpleNamespace(polygons_=[poly], free=lambda v: ok[: len(v)].copy())
+
+
+def test_edge_directions_are_unit_vectors_along_both_edges_at_each_vertex():
+    e1, e2 = edge_directions(_square_planner())
+    assert e1.tolist() == [1j, -1, -1j, 1]  # toward the previous vertex
+    assert e2.tolist() == [1, 1j, -1, -1j]  # toward the next one
+    e1, e2 = edge_directions(_square_planner([True, False, True, True]))  # (2, 0) not free
+    assert e1.tolist() == [1j, -1j, 1] and e2.tolist() == [1, -1, -1j]
+
+
+def test_edge_directions_of_no_obstacles():
+    e1, e2 = edge_directions(SimpleNamespace(polygons_=[]))
+    assert e1.shape == e2.shape == (0,) and e1.dtype == e2.dtype == complex
+
+
+def test_next_points_follow_the_recorded_path_or_go_to_the_goal():
+    """Vertex 0's path leaves its last vertex 1 for the goal: the point after 0 is
+    pred_[1, 0]; vertex 1 sees the goal; vertex 2 has no path (the goal, unused)."""
+    planner = SimpleNamespace(
+        vertices_=np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]),
+        pred_=np.array([[-9, 0, 1], [1, -9, 0], [0, 1, -9]]),
+    )
+    dist = np.array([3.0, 2.0, np.inf])
+    last = np.array([1, 1, -1])
+    got = next_points(planner, dist, last, 5 + 5j)
+    assert got.tolist() == [1 + 0j, 5 + 5j, 5 + 5j]
+    got = next_points(planner, np.array([3.0, 2.0, 4.0]), np.array([1, 1, 0]), 5 + 5j)
+    assert got.tolist() == [1 + 0j, 5 + 5j, 1 + 0j]  # pred_[0, 2] = 1
+
+
+def _in_wedge(normals, apex, p) -> bool:
+    q = p - apex
+    return all((np.conj(n) * q).real <= 0 for n in normals)
+
+
+def test_a_taut_wedge_lies_between_the_far_edge_and_the_path_s_extension():
+    """The corner (0, 0) of the obstacle [0, 2] x [0, 1], a path bending there toward (2, -1):
+    the points whose best anchor it can be lie between the far edge (+y) and the extension of
+    (2, -1) -> (0, 0) beyond it (angles 90 to 153.4 degrees)."""
+    zv = np.array([0j])
+    edges = (np.array([1j]), np.array([1 + 0j]))
+    normals, kind = taut_wedges(zv, edges, np.array([[2 - 1j]]), np.array([[3.0]]))
+    assert normals.shape == (1, 1, 2) and kind.tolist() == [[1]]
+    for deg, inside in [(91, True), (120, True), (153, True), (89, False), (154, False),
+                        (200, False), (-30, False)]:  # fmt: skip
+        p = 5 * complex(math.cos(math.radians(deg)), math.sin(math.radians(deg)))
+        assert _in_wedge(normals[0, 0], 0j, p) == inside, deg
+
+
+def test_the_wedge_turns_with_the_other_far_edge():
+    """The same corner, the path bending toward (-1, 2): the far edge is +x, the wedge runs
+    from the extension (angle -63.4 degrees) to +x (0 degrees)."""
+    zv = np.array([0j])
+    edges = (np.array([1j]), np.array([1 + 0j]))
+    normals, kind = taut_wedges(zv, edges, np.array([[-1 + 2j]]), np.array([[3.0]]))
+    assert kind.tolist() == [[1]]
+    for deg, inside in [(-60, True), (-5, True), (-70, False), (5, False), (120, False)]:
+        p = 5 * complex(math.cos(math.radians(deg)), math.sin(math.radians(deg)))
+        assert _in_wedge(normals[0, 0], 0j, p) == inside, deg
+
+
+def test_wedge_kinds():
+    """0: the path's extension runs into the obstacle (no taut bend there) or no path; 2: the
+    next point is the vertex itself (no direction): anywhere."""
+    zv = np.array([0j, 0j, 0j, 0j])
+    edges = (np.full(4, 1j), np.full(4, 1 + 0j))
+    nxt = np.array([[-1 - 1j, 0j, 2 - 1j, 1e-7 + 0j]])
+    _, kind = taut_wedges(zv, edges, nxt, np.array([[1.0, 1.0, np.inf, 1.0]]))
+    assert kind.tolist() == [[0, 2, 0, 2]]
+    # along an edge's line (cross product 0) the extension is not "behind" the obstacle
+    one = (edges[0][:1], edges[1][:1])
+    _, kind = taut_wedges(zv[:1], one, np.array([[-1 + 0j]]), np.array([[1.0]]))
+    assert kind.tolist() == [[1]]
+
+
+def test_outside_wedge_by_the_nearest_corner_and_the_slack():
+    """The wedge x <= 0 and y <= 0 (normals +x and +y, apex at the origin)."""
+    normals = np.array([[1 + 0j, 1j]] * 5)
+    apex = np.zeros(5, dtype=complex)
+    x0 = np.array([-3.0, 0.5, -1.0, -3.0, 1e-7])
+    y0 = np.array([-3.0, -3.0, -0.5, 2.0, -3.0])
+    got = outside_wedge(normals, apex, x0, y0, 1.0, 1.0)
+    # inside; right of x = 0; straddling y = 0; above y = 0; right by less than the slack
+    assert got.tolist() == [False, True, False, True, False]
+    slack = MARGIN_M + WEDGE_SLACK_RAD * (abs(complex(1e-7 + 0.5, -2.5)) + math.hypot(0.5, 0.5))
+    beyond = outside_wedge(normals[:1], apex[:1], np.array([slack * 1.01]), y0[4:], 1.0, 1.0)
+    assert beyond.tolist() == [True]
+    wide = outside_wedge(normals[:1], apex[:1], np.array([0.3]), np.array([-3.0]), 2.0, 0.5)
+    assert wide.tolist() == [True]  # the block's near side is at x = 0.3
+
+
+# -- distfield helpers -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "w, h, sites, want",
+    [
+        (30.0, 20.0, 10, (64, 32, 5)),  # 0.5 m cells in 16 m blocks: 2 x 1 blocks
+        (4.0, 3.0, 1, (32, 32, 5)),  # smaller than a block: one block
+        (100.0, 100.0, 100_000, (24, 24, 2)),  # cells of 3.86 m keep the table in bounds
+    ],
+)
+def test_field_grid(w, h, sites, want):
+    grid, levels = _grid(w, h, sites)
+    assert (grid.nx, grid.ny, levels) == want
+    assert grid.dx_m == w / grid.nx and grid.dy_m == h / grid.ny
+    assert grid.nx % (1 << levels) == 0 and grid.ny % (1 << levels) == 0
+
+
+def test_cells_meeting_and_within_a_box():
+    grid = Grid(1.0, 1.0, 4, 3)
+    lo, hi = np.array([0.5, 0.5]), np.array([2.0, 2.0])
+    meet = _in_box(grid, lo, hi).reshape(3, 4)
+    assert meet.tolist() == [[True, True, True, False]] * 3  # column 2 touches x = 2
+    within = _within_box(grid, lo, hi).reshape(3, 4)
+    want = np.zeros((3, 4), dtype=bool)
+    want[1, 1] = True
+    assert (within == want).all()
+    assert _within_box(grid, np.zeros(2), np.array([4.0, 3.0])).all()
+    assert not _in_box(grid, np.array([4.5, 0.0]), np.array([6.0, 3.0])).any()
+
+
+def test_field_cache_keeps_the_last_fields_used():
+    cache, built = FieldCache(size=2), []
+
+    def build(name):
+        built.append(name)
+        return name
+
+    assert cache.get("a", lambda: build("a")) == "a"
+    assert cache.get("b", lambda: build("b")) == "b"
+    assert cache.get("a", lambda: build("a2")) == "a"  # kept; now the newest
+    assert cache.get("c", lambda: build("c")) == "c"  # drops b, the oldest
+    assert cache.get("b", lambda: build("b2")) == "b2"
+    assert cache.get("a", lambda: build("a3")) == "a3"  # c and b were newer
+    assert built == ["a", "b", "c", "b2", "a3"]
+    cache.clear()
+    assert cache.get("b", lambda: build("b3")) == "b3"
+
+
+def test_a_field_fits_while_its_anchor_codes_fit():
+    def planner(n_vertices, w=20.0, h=20.0):
+        return SimpleNamespace(
+            spatial=SimpleNamespace(width_m=w, height_m=h), vertices_=np.zeros((n_vertices, 2))
+        )
+
+    top = np.iinfo(np.int16).max - 3  # codes V + 2 (and V + 3 on) stay in int16
+    assert DistanceField.fits(planner(top), 10)
+    assert not DistanceField.fits(planner(top + 1), 10)
+    # cells grow to keep the table within 128 MiB, so keys (cell x sites) stay in 31 bits
+    assert DistanceField.fits(planner(10, 1000.0, 1000.0), 5000)

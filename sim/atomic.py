@@ -7,7 +7,9 @@ never leaves its temporary file behind.
 
 The temporary file is ``.<name>.<pid>.tmp<suffix>`` in the target's folder (the same file
 system, so the rename is atomic; the process id keeps two processes writing the same
-target, as parallel sweeps can, off each other's temporary files).
+target, as parallel sweeps can, off each other's temporary files). Only a process killed
+outright (SIGKILL, a power cut) leaves its hidden temporary file behind; the target is then
+still the previous complete file.
 """
 
 from __future__ import annotations

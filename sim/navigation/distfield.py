@@ -42,8 +42,14 @@ class DistanceField:
 
     Build with :meth:`build`; query with :meth:`distances`. Everything is read-only once
     built, so one field may serve every planner with the same obstacles and sites
-    (:func:`shared_field`).
+    (``SHARED``, a :class:`FieldCache`).
     """
+
+    # Candidate lists get table codes of their own up to the table's range (uint16), the rest
+    # are filed by key; lists are digested this many (cell, site) pairs at a time. Neither
+    # changes a distance; tests lower both to exercise the keyed lists and several passes.
+    max_groups = 1 << 16
+    pairs_per_pass = 1 << 16
 
     def __init__(self, planner, sites: np.ndarray) -> None:
         # a shallow copy: GridPlanner.set_obstacles rebinds the planner's geometry, and the
@@ -177,7 +183,7 @@ class DistanceField:
         rank = np.arange(len(key), dtype=np.int32) - np.repeat(starts.astype(np.int32), sizes)
         code = anchor.astype(np.int32) * 2 + full + 1
         digest = np.zeros(len(starts), dtype=np.uint64)
-        step = 1 << 16  # pairs per pass: bounds the temporaries
+        step = self.pairs_per_pass  # bounds the temporaries
         with np.errstate(over="ignore"):  # a digest: uint64 arithmetic wraps on purpose
             mix = np.uint64(0x9E3779B97F4A7C15)
             powers = np.full(int(sizes.max(initial=1)), mix, dtype=np.uint64)
@@ -204,7 +210,7 @@ class DistanceField:
             ref = np.minimum(ref, len(key) - 1)
             same[part] &= np.logical_and.reduceat(code[lo:hi] == code[ref], starts[part] - lo)
         del code
-        capacity = np.iinfo(self.table_.dtype).max + 1 - self.group_base_
+        capacity = min(np.iinfo(self.table_.dtype).max + 1 - self.group_base_, self.max_groups)
         popular = np.argsort(-count, kind="stable")[:capacity]
         group_of = np.full(len(count), -1)
         group_of[popular] = np.arange(len(popular))

@@ -246,7 +246,7 @@ def test_a_field_fits_while_its_anchor_codes_fit():
 NONE_, FULL_, PART_ = 1, 2, 3  # sim.navigation.raster's classes
 
 
-def _refine(classes, a, b, fa, fb):
+def _refine(classes, a, b, fa, fb, kind=2, normals=None):
     """One site (hidden unless ``classes`` says otherwise) and two anchors a, b (x + iy) with
     geodesics fa, fb, on a 2 m x 2 m block of four 1 m cells. ``classes``: (3,) class of a, b
     and the site's goal, the same from every cell."""
@@ -255,8 +255,8 @@ def _refine(classes, a, b, fa, fb):
     grid = Grid(1.0, 1.0, 2, 2)
     cells = np.repeat(np.asarray(classes, dtype=np.uint8)[:, None], 4, axis=1)
     pyramid = [cells, cells[:, :1].copy()]
-    kind = np.full((1, 2), 2)  # anywhere: no wedge
-    normals = np.zeros((1, 2, 2), dtype=complex)
+    kind = np.full((1, 2), kind)  # 2: anywhere, no wedge
+    normals = np.zeros((1, 2, 2), dtype=complex) if normals is None else normals
     anchor_z = np.array([[a, b, 10 + 10j, 0, 0]])
     anchor_f = np.array([[fa, fb, 0.0, np.inf, np.nan]])
     zv = np.array([a, b])
@@ -306,3 +306,88 @@ def test_an_anchor_at_or_near_the_block_centre():
     cand = _candidates(extra)
     for cell in range(4):
         assert codes[0, cell] == 0 or (0, True) in cand[cell]
+
+
+def test_a_block_that_sees_no_anchor_has_no_path():
+    codes, extra = _refine([NONE_, NONE_, NONE_], 1 + 5j, 1 + 5j, 0.0, 1.0)
+    assert codes.tolist() == [[3, 3, 3, 3]] and codes.dtype == np.int16  # V + 1
+    assert extra[0].size == 0
+
+
+def test_only_anchors_with_a_wedge_are_tested_against_it():
+    """Wedges x <= 0 (normals +x) exclude the block [0, 2] x [0, 2] of anchors of kind 1;
+    anchors of kind 2 (no usable direction) are kept whatever their normals say."""
+    away = np.full((1, 2, 2), 1 + 0j)
+    codes, _ = _refine([PART_, PART_, NONE_], -4 + 1j, -4 + 1j, 0.0, 0.0, kind=1, normals=away)
+    assert codes.tolist() == [[3, 3, 3, 3]]  # both dropped: no candidate left
+    codes, extra = _refine([PART_, PART_, NONE_], -4 + 1j, -4 + 1j, 0.0, 0.0, normals=away)
+    assert codes.tolist() == [[4, 4, 4, 4]]
+    key, anchor, full = extra
+    assert key.dtype == np.int32 and anchor.dtype == np.int16 and full.dtype == bool
+    assert _candidates(extra) == {k: [(0, False), (1, False)] for k in range(4)}
+
+
+def test_wedge_normals_are_unit_vectors():
+    """The wedge test's slack is in metres only for unit normals."""
+    zv = np.zeros(3, dtype=complex)
+    edges = (np.full(3, 1j), np.full(3, 1 + 0j))
+    nxt = np.array([[2 - 1j, -1 + 2j, 0.3 - 0.2j]])  # the last closer than 1 m
+    with np.errstate(all="raise"):
+        normals, kind = taut_wedges(zv, edges, nxt, np.ones((1, 3)))
+    assert kind.tolist() == [[1, 1, 1]]
+    np.testing.assert_allclose(np.abs(normals), 1.0, rtol=0, atol=1e-12)
+
+
+def test_the_far_edge_is_the_one_least_along_the_path():
+    """A corner whose edges leave toward 170 and 80 degrees (the obstacle between them), the
+    path leaving toward 230 degrees: the far edge is the one at 80 degrees (cos 150 < cos 60
+    along the path), and the wedge runs from the path's extension beyond the corner (50
+    degrees) to it."""
+
+    def unit(deg):
+        return complex(math.cos(math.radians(deg)), math.sin(math.radians(deg)))
+
+    edges = (np.array([unit(170)]), np.array([unit(80)]))
+    with np.errstate(all="raise"):
+        normals, kind = taut_wedges(
+            np.array([0j]), edges, np.array([[3 * unit(230)]]), np.ones((1, 1))
+        )
+    assert kind.tolist() == [[1]]
+    for deg, inside in [(55, True), (65, True), (79, True), (45, False), (85, False),
+                        (120, False), (230, False), (300, False)]:  # fmt: skip
+        assert _in_wedge(normals[0, 0], 0j, 5 * unit(deg)) == inside, deg
+
+
+def test_keys_of_the_undecided_pairs_stay_in_31_bits():
+    """A 1 m x 1 m arena is one 16 m block of 32 x 32 cells whatever the sites: 1024 cells x
+    2**21 sites = 2**31 keys is one too many."""
+
+    def planner(n):
+        return SimpleNamespace(
+            spatial=SimpleNamespace(width_m=1.0, height_m=1.0), vertices_=np.zeros((n, 2))
+        )
+
+    assert DistanceField.fits(planner(10), 2**21 - 1)
+    assert not DistanceField.fits(planner(10), 2**21)
+
+
+def test_field_grid_of_a_vast_arena():
+    """20 km x 20 km, one site: cells of 2.44 m keep the table below 128 MiB; 1 km x 1 km
+    with 17,180 sites: cells of 16 m, blocks of one cell (no halving)."""
+    grid, levels = _grid(20_000.0, 20_000.0, 1)
+    assert grid.dx_m == pytest.approx(2.44, abs=0.01) and levels == 3
+    grid, levels = _grid(1000.0, 1000.0, 17_180)
+    assert levels == 0 and grid.dx_m == pytest.approx(16.13, abs=0.01)
+
+
+def test_box_masks_at_cell_borders_and_off_square():
+    grid = Grid(0.5, 1.0, 6, 4)  # 3 m x 4 m
+    lo, hi = np.array([1.0, 2.0]), np.array([2.0, 3.5])
+    meet = _in_box(grid, lo, hi).reshape(4, 6)
+    want = np.zeros((4, 6), dtype=bool)
+    want[1:4, 1:5] = True  # cells touching x = 1 and x = 2, y = 2 (row 1's top) count
+    assert (meet == want).all()
+    within = _within_box(grid, lo, hi).reshape(4, 6)
+    want = np.zeros((4, 6), dtype=bool)
+    want[2, 2:4] = True
+    assert (within == want).all()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import time
 
 import numpy as np
 import pytest
@@ -259,3 +260,100 @@ def test_a_shared_field_keeps_its_arena_when_one_planner_gets_new_obstacles():
     np.testing.assert_allclose(
         a.distances(pos, sites), a.exact_distances(pos, sites), rtol=1e-12, atol=1e-9
     )
+
+
+def _field_against_planner(planner, field, pos):
+    sites = planner.site_points()
+    got = field.distances(pos, field.columns(sites))
+    want = planner.exact_distances(pos, sites)
+    assert np.array_equal(np.isinf(got), np.isinf(want))
+    ok = np.isfinite(want)
+    np.testing.assert_allclose(got[ok], want[ok], rtol=1e-12, atol=1e-9)
+    return got
+
+
+@pytest.mark.parametrize("arena", ["obstacles", "clutter"])
+def test_candidate_lists_filed_by_key_and_digested_in_several_passes(arena, monkeypatch):
+    """With room for only two lists of their own in the table (the rest found by key) and
+    digests of seven pairs a pass, the field gives the same distances as the planner, bit for
+    bit the same as with the defaults."""
+    planner = planner_with_sites(ARENAS[arena])
+    sites = planner.site_points()
+    rng = np.random.default_rng(11)
+    pos = rng.uniform(0.0, 20.0, size=(500, 2))
+    default = DistanceField.build(planner, sites)
+    want = default.distances(pos, default.columns(sites))
+    monkeypatch.setattr(DistanceField, "max_groups", 2)
+    monkeypatch.setattr(DistanceField, "pairs_per_pass", 7)
+    field = DistanceField.build(planner, sites)
+    assert len(field.group_start_) == 3 and field.mixed_key_.size > 100  # lists by key
+    assert (np.diff(field.mixed_key_) > 0).all()  # sorted, one row per pair
+    got = _field_against_planner(planner, field, pos)
+    assert np.array_equal(got, want)
+    codes = field.table_[field.grid_.cells(pos)]
+    assert (codes == field.mixed_code_).any() and (codes >= field.group_base_).any()
+
+
+def test_positions_outside_the_arena_or_deep_in_obstacles_are_computed_exactly():
+    """Points the table cannot answer (beyond the arena, in the walls' margin, inside a box
+    by more than the snap reaches), several of them in one call, keep their rows."""
+    planner = planner_with_sites(ARENAS["obstacles"])
+    field = DistanceField.build(planner, planner.site_points())
+    rng = np.random.default_rng(12)
+    pos = rng.uniform(1.0, 19.0, size=(40, 2))
+    odd = np.array([[-3.0, 5.0], [10.0, 10.0], [25.0, 25.0], [10.0, -0.5], [9.0, 11.0]])
+    pos = np.insert(pos, [3, 3, 10, 20, 40], odd, axis=0)
+    got = _field_against_planner(planner, field, pos)
+    one_by_one = np.array([field.distances(p[None], field.columns(planner.site_points()))[0]
+                           for p in pos])  # fmt: skip
+    assert np.array_equal(got, one_by_one)
+
+
+def test_a_closed_pocket_is_out_of_reach():
+    """Four walls enclose a 4 m x 4 m pocket: from inside it, sites outside are at infinity
+    (and from outside, a site inside it)."""
+    ring = (
+        ((6.0, 6.0), (14.0, 6.0), (14.0, 7.0), (6.0, 7.0)),
+        ((6.0, 13.0), (14.0, 13.0), (14.0, 14.0), (6.0, 14.0)),
+        ((6.0, 7.0), (7.0, 7.0), (7.0, 13.0), (6.0, 13.0)),
+        ((13.0, 7.0), (14.0, 7.0), (14.0, 13.0), (13.0, 13.0)),
+    )
+    spatial = SpatialSpec(
+        20.0, 20.0, ring, (((2.0, 2.0), (10.0, 10.0)),), DriveSpec(), clearance_m=0.1
+    )
+    planner = GridPlanner(spatial)
+    sites = planner.site_points()
+    field = DistanceField.build(planner, sites)
+    pos = np.array([[10.0, 10.5], [9.0, 9.0], [2.0, 18.0], [18.0, 2.0]])
+    got = field.distances(pos, field.columns(sites))
+    inner = 0 if sites[0, 0] == 10.0 else 1
+    outer = 1 - inner
+    assert np.isinf(got[:2, outer]).all() and np.isfinite(got[:2, inner]).all()
+    assert np.isinf(got[2:, inner]).all() and np.isfinite(got[2:, outer]).all()
+    assert (field.table_ == field.inf_code_).any()
+
+
+def test_build_time_is_measured_once():
+    planner = planner_with_sites(ARENAS["obstacles"])
+    t0 = time.perf_counter()
+    field = DistanceField.build(planner, planner.site_points())
+    wall = time.perf_counter() - t0
+    assert 0 < field.build_s_ <= wall
+    assert field.build_s_ == pytest.approx(sum(field.timings_.values()), abs=1e-9)
+
+
+def test_a_field_too_large_is_refused_with_its_sizes(monkeypatch):
+    planner = planner_with_sites(ARENAS["obstacles"])
+    monkeypatch.setattr(DistanceField, "fits", staticmethod(lambda planner, n: False))
+    with pytest.raises(ValueError, match=r"^\d+ vertices and 40 sites do not fit a distance"):
+        DistanceField.build(planner, planner.site_points())
+
+
+def test_columns_of_sites_the_field_does_not_know_are_minus_one():
+    planner = planner_with_sites(ARENAS["open"])
+    sites = planner.site_points()
+    field = DistanceField.build(planner, sites[:5])
+    cols = field.columns(np.concatenate([sites[[3, 0]], [[1.23, 4.56]], sites[[7]]]))
+    assert cols.dtype == np.int64
+    known = [int(np.flatnonzero((field.sites == s).all(axis=1))[0]) for s in sites[[3, 0]]]
+    assert cols.tolist() == [*known, -1, -1]

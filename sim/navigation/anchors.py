@@ -138,7 +138,6 @@ def refine(
             return codes.reshape(n_s, -1), extra
         rest = ~np.repeat(one, sizes)
         site, anchor, bx, by = site[rest], anchor[rest], bx[rest], by[rest]
-        starts = starts[~one]
         sizes = sizes[~one]
         new_start = np.cumsum(np.append(0, sizes[:-1])) if sizes.size else sizes
         rank = np.arange(len(site)) - np.repeat(new_start, sizes)

@@ -292,6 +292,13 @@ def test_candidate_lists_filed_by_key_and_digested_in_several_passes(arena, monk
     assert np.array_equal(got, want)
     codes = field.table_[field.grid_.cells(pos)]
     assert (codes == field.mixed_code_).any() and (codes >= field.group_base_).any()
+    for name, dtype in [("mixed_key_", np.int32), ("mixed_start_", np.int32),
+                        ("group_start_", np.int32), ("entry_anchor_", np.int16)]:  # fmt: skip
+        assert getattr(field, name).dtype == dtype, name  # the field's size (nbytes)
+    pairs = int((default.table_ >= default.mixed_code_).sum())  # undecided (cell, site) pairs
+    monkeypatch.setattr(DistanceField, "pairs_per_pass", pairs)  # one pass, exactly full
+    field = DistanceField.build(planner, sites)
+    assert np.array_equal(field.distances(pos, field.columns(sites)), want)
 
 
 def test_positions_outside_the_arena_or_deep_in_obstacles_are_computed_exactly():

@@ -393,3 +393,8 @@ def test_box_masks_at_cell_borders_and_off_square():
     want = np.zeros((4, 6), dtype=bool)
     want[2, 2:4] = True
     assert (within == want).all()
+    tall = Grid(1.0, 0.5, 4, 6)  # 4 m x 3 m: rows of 0.5 m
+    within = _within_box(tall, np.array([1.0, 1.0]), np.array([3.0, 2.0])).reshape(6, 4)
+    want = np.zeros((6, 4), dtype=bool)
+    want[2:4, 1:3] = True
+    assert (within == want).all()

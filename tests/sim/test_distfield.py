@@ -301,9 +301,11 @@ def test_candidate_lists_filed_by_key_and_digested_in_several_passes(arena, monk
     assert np.array_equal(field.distances(pos, field.columns(sites)), want)
 
 
-def test_positions_outside_the_arena_or_deep_in_obstacles_are_computed_exactly():
-    """Points the table cannot answer (beyond the arena, in the walls' margin, inside a box
-    by more than the snap reaches), several of them in one call, keep their rows."""
+def test_positions_off_the_free_space_are_snapped_back_several_in_one_call():
+    """Points beyond the arena, in the walls' margin or inside a box are snapped to the
+    nearest free point (plus the distance to it), as the planner does, and several in one
+    call keep their rows. (None of these reaches the exact fallback for points snapping
+    leaves outside the cared-for cells: no test does, README run N.)"""
     planner = planner_with_sites(ARENAS["obstacles"])
     field = DistanceField.build(planner, planner.site_points())
     rng = np.random.default_rng(12)

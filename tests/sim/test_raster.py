@@ -16,7 +16,6 @@ import pytest
 
 from sim.navigation.raster import (
     FULL,
-    MARGIN_M,
     NONE,
     PART,
     Grid,
@@ -158,11 +157,10 @@ SQUARE = [(2.0, 1.0), (4.0, 1.0), (4.0, 3.0), (2.0, 3.0)]  # [2, 4] x [1, 3]
 PAD = (np.zeros((1, 2)), np.ones(1))
 
 
-def region(poly, pad=True):
+def region(poly):
     """One region (1, H, 2), (1, H) from a polygon, with one padding row."""
     n, c = halfplanes(poly)
-    if pad:
-        n, c = np.concatenate([n, PAD[0]]), np.concatenate([c, PAD[1]])
+    n, c = np.concatenate([n, PAD[0]]), np.concatenate([c, PAD[1]])
     return n[None], c[None]
 
 
@@ -575,7 +573,6 @@ def test_the_margin_makes_full_and_none_certain_at_cell_borders():
     assert got[:, 1].tolist() == [PART, PART, PART, PART, FULL]
     assert got[1, 2] == PART and got[2, 2] == PART
     assert got[1, 3] == NONE and got[2, 3] == NONE
-    assert MARGIN_M > 0
 
 
 # -- the sight index ---------------------------------------------------------------------

@@ -279,7 +279,7 @@ def test_idle_robots_on_every_place_are_sent_out_for_a_robot_holding_in_the_queu
     assert f.yielding[:5].any()  # asked to drive out
 
 
-# ---- pinned by mutation testing (tests/mutation) ------------------------------------------
+# ---- cases a mutation audit found open ---------------------------------------------------
 
 
 def full_site(extra_at: complex):

@@ -26,10 +26,10 @@ from dataclasses import fields
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.control.orca import AVOIDANCE
-from sim.jams import LOOK_AHEAD
-from sim.navigation.planning import GridPlanner, polygon_signed_distance
 from sim.scenario import DriveSpec, RobotSpec, SpatialSpec
+from sim.spatial.jams import LOOK_AHEAD
+from sim.spatial.law.orca import AVOIDANCE
+from sim.spatial.navigation.planning import GridPlanner, polygon_signed_distance
 
 _WORDS = {"avoidance": AVOIDANCE, "look_ahead": LOOK_AHEAD}  # string keys, allowed values
 _NUMBERS = {

@@ -14,16 +14,6 @@ import numpy as np
 
 from sim.atomic import atomic_open
 
-IDLE, DRIVING, WORKING = 0, 1, 2
-WAITING = 3  # recorded only (never in the fleet state): driving, but decided to wait (holding
-# in a site's queue, for a robot at work to finish): its stuck clock is stopped
-
-
-def shown_states(state: np.ndarray, t_progress_s: np.ndarray, t_s: float) -> np.ndarray:
-    """The states to record: ``WAITING`` for a driving robot whose stuck clock is set after
-    ``t_s`` (progress sets it to now; only a decision to wait sets it later), else ``state``."""
-    return np.where((state == DRIVING) & (t_progress_s > t_s), WAITING, state)
-
 
 @dataclass(frozen=True)
 class Trajectory:

@@ -106,9 +106,11 @@ class SpatialSpec:
     max_recoveries: int = 3  # back-off-and-replan attempts before a task is reported failed
     collision_slop_m: float = 0.005  # pymunk's allowed overlap, in metres
     avoidance: str = (
-        "orca"  # reciprocal collision avoidance (sim.control.orca); "none": proximity law
+        "orca"  # reciprocal collision avoidance (sim.spatial.law.orca); "none": proximity law
     )
-    look_ahead: str = "off"  # "on": plan round robots at work in the way (sim.jams.Jams.look_ahead)
+    look_ahead: str = (
+        "off"  # "on": plan round robots at work in the way (sim.spatial.jams.Jams.look_ahead)
+    )
 
 
 FAULT_POLICIES = ("requeue", "drop")

@@ -295,12 +295,16 @@ def reaches_outside(edges: list[Edge], package: str, allowed: Iterable[str]) -> 
 
 
 def test_navigation_knows_only_the_arena():
-    """``sim.navigation`` (planning, distance fields, path following) reads the arena from
+    """``sim.spatial.navigation`` (planning, distance fields, path following) reads the arena from
     ``sim.scenario`` and nothing else of the world: no robots' state, no pymunk world."""
     edges, _, readers = read_imports(package_sources())
-    assert "sim.navigation.planning" in readers and "sim.navigation.paths" in readers
-    assert reaches_outside(edges, "sim.navigation", {"sim.scenario"}) == []
-    assert any(e.importer.startswith("sim.navigation.") for e in edges)  # its own imports read
+    assert (
+        "sim.spatial.navigation.planning" in readers and "sim.spatial.navigation.paths" in readers
+    )
+    assert reaches_outside(edges, "sim.spatial.navigation", {"sim.scenario"}) == []
+    assert any(
+        e.importer.startswith("sim.spatial.navigation.") for e in edges
+    )  # its own imports read
 
 
 def test_every_package_is_read():
@@ -394,7 +398,7 @@ def test_checker_fails_on_a_package_reaching_outside_what_it_may_know():
 
 def test_no_environment_variable_changes_behaviour():
     """A run depends on its spec only: no package module reads the environment (an experiment
-    switch left in ``sim/control/orca.py`` once did)."""
+    switch left in ``sim/spatial/law/orca.py`` once did)."""
     offenders = []
     for pkg in ("sim", "allocation", "learning"):
         for path in sorted((ROOT / pkg).rglob("*.py")):

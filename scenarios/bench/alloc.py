@@ -185,7 +185,7 @@ def bench_costs(
 ) -> dict[str, dict[str, float]]:
     """Allocation time per round under each cost model, in the arena of ``mrta bench``.
 
-    For each size the synthetic arena of ``sim.bench_arena`` (1000 robots: 115 m, 97 boxes,
+    For each size the synthetic arena of ``scenarios.bench.arena`` (1000 robots: 115 m, 97 boxes,
     500 sites) with the robots at random free points, all free; rounds of ``tasks`` tasks at
     random sites; the market auction. A round is the cost model's bids plus the auction.
 
@@ -193,14 +193,14 @@ def bench_costs(
         ``{"1000": {"abstract_ms", "straight_ms", "distance_ms", "time_ms", ...}, ...}``: mean
         ms per round under the scenario's cost table, straight lines, planned distances and
         planned times; where the planner builds its distance field (from
-        ``sim.navigation.planning.FIELD_MIN_ROBOTS`` robots), ``field_build_s``, ``field_mib``
-        (held) and ``field_peak_mib`` (tracemalloc peak while building), measured apart from the
-        rounds.
+        ``sim.spatial.navigation.planning.FIELD_MIN_ROBOTS`` robots), ``field_build_s``,
+        ``field_mib`` (held) and ``field_peak_mib`` (tracemalloc peak while building), measured
+        apart from the rounds.
     """
     from allocation.costs import DistanceCost, StraightLineCost, TimeCost
-    from sim.bench_arena import bench_scenario
-    from sim.navigation.distfield import SHARED, DistanceField
-    from sim.navigation.planning import FIELD_MIN_ROBOTS, GridPlanner
+    from scenarios.bench.arena import bench_scenario
+    from sim.spatial.navigation.distfield import SHARED, DistanceField
+    from sim.spatial.navigation.planning import FIELD_MIN_ROBOTS, GridPlanner
 
     rounds = {**SPATIAL_ROUNDS, **(rounds or {})}
     out: dict[str, dict[str, float]] = {}
@@ -267,8 +267,8 @@ def bench_assignment(
     from scipy.optimize import linear_sum_assignment
 
     from allocation.auction import priority_cost_matrix
-    from sim.bench_arena import bench_scenario
-    from sim.navigation.planning import GridPlanner
+    from scenarios.bench.arena import bench_scenario
+    from sim.spatial.navigation.planning import GridPlanner
 
     try:
         import lap

@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
+from scenarios.bench.synthetic import synthetic_trajectory
 from sim.recording import Trajectory
 from sim.render import frame_times, render_frame, render_gif
 from sim.render.frames import time_decimals
 from sim.render.scene import FrameScene
 from sim.render.style import DPI
-from sim.synthetic import synthetic_trajectory
 
 BENCH_SEED = 0
 

@@ -9,8 +9,8 @@ bare loop then steps the very same space (same bodies, joints and contacts) with
 it. Both are timed in the same process, one after the other, so ``bare_ratio`` is a ratio
 measured in one run.
 
-The space sets its solver iterations by the contacts (``sim.contacts``: one iteration while no
-contact touches, which is exact then, ten while one does), and the bare loop steps it as it is,
+The space sets its solver iterations by the contacts (``sim.spatial.contacts``: one iteration while
+no contact touches, which is exact then, ten while one does), and the bare loop steps it as it is,
 with ``Space.step``. For comparison with a space left at pymunk's defaults, the bare loop is timed
 once more with ten iterations throughout (``bare10_steps_per_s``), and ``contact_share`` is the
 share of the loop's physics steps that ended with a contact touching.
@@ -23,10 +23,10 @@ import time
 
 import numpy as np
 
-import sim.contacts
-from sim.bench_arena import bench_scenario
-from sim.physics import PymunkWorld
+import sim.spatial.contacts
+from scenarios.bench.arena import bench_scenario
 from sim.recording import TrajectoryRecorder
+from sim.spatial.world import PymunkWorld
 from sim.tasks import Batch
 
 DEFAULT_SIM_S = {10: 600.0, 100: 120.0, 1000: 30.0}  # a second or two of wall time each
@@ -93,8 +93,8 @@ def bench_sim(
         with ten solver iterations throughout),
         the share of loop steps with a contact touching, and the milliseconds the
         planned-distance bids of every robot on 7 tasks take (:func:`_bids_ms`); the share of
-        the loop's time spent in collision avoidance (``sim.control.orca``) and that time per step
-        over the bare step, and the same for the site work only avoidance brings
+        the loop's time spent in collision avoidance (``sim.spatial.law.orca``) and that time per
+        step over the bare step, and the same for the site work only avoidance brings
         (:func:`timed_sites`). If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
         ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; with
         avoidance, :func:`replan_report`; if the planner built its distance field,
@@ -127,12 +127,12 @@ def bench_sim(
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
         bare = bare_step_time(world, max(60, steps // 4))
-        free = sim.contacts.FREE_ITERATIONS
+        free = sim.spatial.contacts.FREE_ITERATIONS
         try:  # the same with pymunk's default solver iterations throughout
-            sim.contacts.FREE_ITERATIONS = world.space.iterations = 10
+            sim.spatial.contacts.FREE_ITERATIONS = world.space.iterations = 10
             bare10 = bare_step_time(world, max(60, steps // 4))
         finally:
-            sim.contacts.FREE_ITERATIONS = free
+            sim.spatial.contacts.FREE_ITERATIONS = free
         bids_ms = _bids_ms(world, rng)
         out[str(n)] = {
             "steps_per_s": steps / wall,
@@ -162,10 +162,10 @@ def bench_sim(
 def replan_report(world: PymunkWorld, rng: np.random.Generator, calls: int = 20) -> dict:
     """What the jam rule's re-plan round robots costs (``GridPlanner.path_around``): mean ms
     of ``calls`` re-plans, each of a random robot to a random task site round the robots
-    within ``sim.jams.AROUND_M`` of it, as the rule builds them (``replan_ms``: the arena's
+    within ``sim.spatial.jams.AROUND_M`` of it, as the rule builds them (``replan_ms``: the arena's
     visibility and grown obstacles reused) and with the whole graph built afresh
     (``replan_fresh_ms``), the same calls in the same run."""
-    from sim.jams import AROUND_M
+    from sim.spatial.jams import AROUND_M
 
     z = world.fleet.last_z_m
     sites = np.asarray(world.spatial.sites[0], dtype=float)
@@ -264,11 +264,11 @@ if __name__ == "__main__":
 @contextlib.contextmanager
 def timed_avoidance():
     """Time every collision-avoidance call of both control periods while the block runs
-    (``sim.control.avoidance.steer_clear`` among robots and ``wall_clear`` toward walls, as
+    (``sim.spatial.control.avoidance.steer_clear`` among robots and ``wall_clear`` toward walls, as
     the two periods hold them); yields a one-item list whose entry is the wall seconds spent
     in them so far."""
-    import sim.control.array as array_period
-    import sim.control.scalar as scalar_period
+    import sim.spatial.control.array as array_period
+    import sim.spatial.control.scalar as scalar_period
 
     spent = [0.0]
 
@@ -298,12 +298,13 @@ def timed_avoidance():
 @contextlib.contextmanager
 def timed_sites():
     """Time the site work that exists only with collision avoidance on (site queues, service
-    slots, robots driving clear of a service point: ``sim.sites.Sites.queue``, ``take_slots``,
-    ``leave``; going round robots at work and jams seen at once: ``sim.jams.Jams.pass_workers``,
-    ``break_jams``) while the block runs; yields a one-item list whose entry is the wall seconds
-    spent in them so far (a call inside another timed one is counted once)."""
-    from sim.jams import Jams
-    from sim.sites import Sites
+    slots, robots driving clear of a service point: ``sim.spatial.sites.Sites.queue``,
+    ``take_slots``, ``leave``; going round robots at work and jams seen at once:
+    ``sim.spatial.jams.Jams.pass_workers``, ``break_jams``) while the block runs; yields a one-item
+    list whose entry is the wall seconds spent in them so far (a call inside another timed one is
+    counted once)."""
+    from sim.spatial.jams import Jams
+    from sim.spatial.sites import Sites
 
     spent, depth = [0.0], [0]
     methods = [(Sites, name) for name in ("queue", "take_slots", "leave")]

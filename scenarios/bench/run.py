@@ -11,10 +11,10 @@
   of that arena are reported as ``busy_*`` members of the ``"10"`` row. ``bids_ms`` is the time
   the ``distance`` cost model takes to bid every robot on a paper-sized batch of 7 tasks,
   ``round_bids_ms`` / ``round_auction_ms`` what bidding and the auction took per round of the
-  timed loop. With 1000 robots the bids come from the distance field (``sim.navigation.distfield``),
-  built during the warm-up: its build time, memory, ms per call for all robots x all 500 sites
-  and x 50 sites against numpy straight lines, and its largest difference from the exact query
-  are reported (``sim.bench_sim.field_report``);
+  timed loop. With 1000 robots the bids come from the distance field
+  (``sim.spatial.navigation.distfield``), built during the warm-up: its build time, memory, ms per
+  call for all robots x all 500 sites and x 50 sites against numpy straight lines, and its largest
+  difference from the exact query are reported (``sim.bench_sim.field_report``);
 - ``gif``: a 200-frame 600x600 GIF of the 10-robot ``paper_spatial`` scenario (one task set,
   ExpT-MRTA, distance cost, seed 0) with our renderer against ``FuncAnimation`` +
   ``PillowWriter`` on the same frames (``sim.bench_render``);

@@ -229,7 +229,7 @@ def write_stall_map(out: Path, stalls: dict, spatial) -> str:
 
     from scenarios.experiments.figures import fig_stall_map, places_line, stall_places
     from scenarios.experiments.output import write_npz_atomic
-    from sim.stalls import CAUSES
+    from sim.spatial.stalls import CAUSES
 
     seconds, cell_m = stalls["seconds"], float(stalls["cell_m"])
     arena = (spatial.width_m, spatial.height_m)
@@ -335,9 +335,9 @@ def cmd_render(args) -> int:
 def cmd_hardcase(args) -> int:
     import json
 
+    from scenarios.experiments.hardcases import CASES, run_case
     from scenarios.experiments.protocol import UserError
     from scenarios.loader import did_you_mean
-    from sim.hardcases import CASES, run_case
     from sim.render import render_gif
     from sim.render.style import fitted_height
 

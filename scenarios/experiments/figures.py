@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.contacts import IMPACT_MPS
-from sim.stalls import CAUSES, LONG_S, STILL_MPS
+from sim.spatial.contacts import IMPACT_MPS
+from sim.spatial.stalls import CAUSES, LONG_S, STILL_MPS
 
 ALLOCATOR_COLOURS = {"market": "#4c72b0", "ql": "#dd8452", "expt": "#55a868"}
 ALLOCATOR_LABELS = {"market": "Market (MRTA)", "ql": "QL-MRTA", "expt": "ExpT-MRTA"}
@@ -336,7 +336,7 @@ CONTACT_KINDS = ("robot_touch", "robot_impact", "wall_touch", "wall_impact")
 
 
 def stall_line(spatial: dict) -> str:
-    """Where driving robots stood still (``sim.stalls``), largest cause first, on one line;
+    """Where driving robots stood still (``sim.spatial.stalls``), largest cause first, on one line;
     empty for a summary without the stall counts."""
     if "still_share" not in spatial:
         return ""
@@ -351,7 +351,8 @@ def stall_line(spatial: dict) -> str:
     )
 
 
-STALL_GROUPS = (  # the panels of the stall map: a title and the causes (sim.stalls.CAUSES) in it
+# the panels of the stall map: a title and the causes (sim.spatial.stalls.CAUSES) in it
+STALL_GROUPS = (
     ("meeting a driving robot", ("robot_head_on", "robot_crossing", "robot_same_way")),
     ("beside a robot at work or idle", ("robot_at_work", "robot_idle")),
     ("holding in a site's queue", ("queue",)),
@@ -360,7 +361,7 @@ STALL_GROUPS = (  # the panels of the stall map: a title and the causes (sim.sta
 
 
 def stall_places(seconds: np.ndarray, cell_m: float, k: int = 3) -> list[dict]:
-    """The ``k`` cells of a stall map (``sim.stalls.StallMeter.seconds_map``) where driving
+    """The ``k`` cells of a stall map (``sim.spatial.stalls.StallMeter.seconds_map``) where driving
     robots stood longest, longest first (ties: lower row, then column): each cell's lower-left
     corner ``x_m``, ``y_m``, its standing ``seconds`` and the ``cause`` with most of them."""
     total = seconds.sum(axis=0)

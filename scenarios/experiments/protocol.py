@@ -39,9 +39,9 @@ from scenarios.experiments.metrics import (
 )
 from scenarios.loader import load_scenario
 from sim import make_world
-from sim.control.orca import AVOIDANCE
-from sim.jams import LOOK_AHEAD
 from sim.scenario import Scenario
+from sim.spatial.jams import LOOK_AHEAD
+from sim.spatial.law.orca import AVOIDANCE
 from sim.tasks import TaskStream, generate_stream, load_stream
 
 OVERRIDABLE = ("stream", "learning", "experience", "faults")
@@ -155,7 +155,7 @@ def execute(
         recorder: a ``sim.recording.TrajectoryRecorder`` (spatial worlds) to fill.
         task_table: add ``"task_table"``, one row per test-phase task that was allocated.
         stall_map: add ``"stall_map"`` (spatial worlds): ``cell_m`` and ``seconds``, where
-            driving robots stood still, by cause (``sim.stalls.StallMeter.seconds_map``).
+            driving robots stood still, by cause (``sim.spatial.stalls.StallMeter.seconds_map``).
         on_round: called after every announcement round (progress bars).
     """
     scenario, stream, world, cost, allocator, rng = build_run(spec)

@@ -26,7 +26,7 @@ import numpy as np
 from learning.episode import run_protocol
 from learning.fates import ABANDON_ENDS, FATES
 from scenarios.experiments.protocol import RunSpec, UserError, build_run, load_named
-from sim.recording import DRIVING
+from sim.states import DRIVING
 
 
 def peak_rss_mib() -> float:

@@ -29,7 +29,8 @@ METRIC_COLUMNS = (
     "time_per_task_s",  # spatial: allocation to done, per completed task
     "time_to_start_s",  # spatial: allocation to arrival, per completed task
     "failed_tasks",  # spatial: tasks reported failed over the whole run, learning sets too
-    *SPATIAL_CONTACTS,  # spatial: contacts begun per robot-hour, by kind, whole run (sim.contacts)
+    # spatial: contacts begun per robot-hour, by kind, whole run (sim.spatial.contacts)
+    *SPATIAL_CONTACTS,
     "scarce_types",  # the types with the fewest willing robots at the end, ";"-joined
     "completion_scarce_low",  # completion of those types (mean over them), low priority
     "completion_scarce_high",  # ... high priority

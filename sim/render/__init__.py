@@ -16,7 +16,6 @@ canvas directly, so the importing process's backend is never selected or switche
 from sim.render.animation import render_gif, render_mp4
 from sim.render.env import env_frame
 from sim.render.frames import frame_times, render_frame, render_frames
-from sim.synthetic import synthetic_trajectory
 
 __all__ = [
     "env_frame",
@@ -25,5 +24,4 @@ __all__ = [
     "render_frames",
     "render_gif",
     "render_mp4",
-    "synthetic_trajectory",
 ]

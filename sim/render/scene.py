@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim.recording import DRIVING, IDLE, WAITING, WORKING, Trajectory
+from sim.recording import Trajectory
 from sim.render.style import (
     ASSIGN_COLOUR,
     BOTTOM_PX,
@@ -53,6 +53,7 @@ from sim.render.timeline import (
     task_view_at,
     trails_at,
 )
+from sim.states import DRIVING, IDLE, WAITING, WORKING
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

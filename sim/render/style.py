@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim.recording import DRIVING, IDLE, WAITING, WORKING
+from sim.states import DRIVING, IDLE, WAITING, WORKING
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

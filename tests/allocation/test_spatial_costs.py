@@ -15,9 +15,9 @@ from allocation.auction import (
 )
 from allocation.costs import DistanceCost, StraightLineCost
 from scenarios.bench.alloc import bench_assignment, bench_costs
-from sim.bench_arena import bench_scenario
-from sim.navigation.distfield import SHARED
-from sim.navigation.planning import GridPlanner
+from scenarios.bench.arena import bench_scenario
+from sim.spatial.navigation.distfield import SHARED
+from sim.spatial.navigation.planning import GridPlanner
 from sim.tasks import Batch
 from sim.world import WorldState
 

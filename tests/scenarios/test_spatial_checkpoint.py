@@ -19,7 +19,7 @@ from learning.checkpoint import load_checkpoint
 from learning.rounds import play_round
 from scenarios.experiments.protocol import RunSpec, execute
 from scenarios.loader import load_scenario
-from sim.physics import PymunkWorld
+from sim.spatial.world import PymunkWorld
 
 ROOT = Path(__file__).resolve().parents[2]
 BUNDLED = ROOT / "scenarios" / "data" / "paper_spatial.toml"
@@ -222,7 +222,7 @@ def test_run_writes_where_robots_stood_and_it_adds_up(tmp_path, capsys):
     beside it; and the line naming the cell robots stood in longest is that of the map."""
     from scenarios.cli import main
     from scenarios.experiments.figures import stall_places
-    from sim.stalls import CAUSES
+    from sim.spatial.stalls import CAUSES
 
     out = tmp_path / "run"
     scenario = str(small_spatial(tmp_path, n_sets=4, rounds=6))
@@ -246,18 +246,18 @@ def test_run_writes_where_robots_stood_and_it_adds_up(tmp_path, capsys):
 def test_rebuild_frees_the_old_spaces_and_reuses_the_batch_buffers(tmp_path):
     """A soak rebuilds the space at every set end: the old spaces must be freed (a pymunk
     space and its collision handlers form a reference cycle: by a collection once the dropped
-    spaces hold ``sim.physics.GC_ROBOTS`` robots) and the batch buffers, whose C arrays pymunk
+    spaces hold ``sim.spatial.world.GC_ROBOTS`` robots) and the batch buffers, whose C arrays pymunk
     never frees, reused; otherwise memory grows set by set."""
     import math
     import weakref
 
-    import sim.physics
+    import sim.spatial.world
 
     world = PymunkWorld(load_scenario(small_spatial(tmp_path)))
     world.reset(np.random.default_rng(0))
     buffers = (world.motors.buf_, world.contacts.buf_)
     old = [weakref.ref(world.space)]
-    for _ in range(math.ceil(sim.physics.GC_ROBOTS / world.scenario.n_robots)):
+    for _ in range(math.ceil(sim.spatial.world.GC_ROBOTS / world.scenario.n_robots)):
         world.rebuild()
         old.append(weakref.ref(world.space))
         assert (world.motors.buf_, world.contacts.buf_) == buffers

@@ -209,7 +209,7 @@ def test_stall_places_are_the_longest_cells_and_the_panels_their_groups():
     """``stall_places`` against brute force over a random map (ties by row, then column;
     empty cells never named); each panel of ``fig_stall_map`` draws the sum of its causes."""
     from scenarios.experiments.figures import STALL_GROUPS, fig_stall_map, stall_places
-    from sim.stalls import CAUSES
+    from sim.spatial.stalls import CAUSES
 
     rng = np.random.default_rng(7)
     seconds = rng.integers(0, 4, size=(len(CAUSES), 6, 9)).astype(float) * 0.5

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from scenarios.loader import ScenarioError, load_scenario, parse_scenario
-from sim.control.orca import MARGIN_M
-from sim.physics import PymunkWorld
+from sim.spatial.law.orca import MARGIN_M
+from sim.spatial.world import PymunkWorld
 from sim.tasks import Batch
 
 SPATIAL = ["paper_spatial", "warehouse", "warehouse_wide", "warehouse_pickface", "large"]

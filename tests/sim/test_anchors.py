@@ -1,5 +1,5 @@
-"""The distance field's parts (`sim.navigation.anchors`, the helpers of
-`sim.navigation.distfield`), each against numbers worked by hand.
+"""The distance field's parts (`sim.spatial.navigation.anchors`, the helpers of
+`sim.spatial.navigation.distfield`), each against numbers worked by hand.
 
 `tests/sim/test_distfield.py` checks the whole field against the planner: exact distances.
 The pruning here only ever drops candidates for a proof, so a part that prunes less (a wedge
@@ -15,7 +15,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from sim.navigation.anchors import (
+from sim.spatial.navigation.anchors import (
     MARGIN_M,
     WEDGE_SLACK_RAD,
     _write,
@@ -25,14 +25,14 @@ from sim.navigation.anchors import (
     run_starts,
     taut_wedges,
 )
-from sim.navigation.distfield import (
+from sim.spatial.navigation.distfield import (
     DistanceField,
     FieldCache,
     _grid,
     _in_box,
     _within_box,
 )
-from sim.navigation.raster import Grid
+from sim.spatial.navigation.raster import Grid
 
 # -- anchors -----------------------------------------------------------------------------
 
@@ -245,14 +245,14 @@ def test_a_field_fits_while_its_anchor_codes_fit():
 
 # -- refine: the pruning rules on one block of 2 x 2 cells ---------------------------------
 
-NONE_, FULL_, PART_ = 1, 2, 3  # sim.navigation.raster's classes
+NONE_, FULL_, PART_ = 1, 2, 3  # sim.spatial.navigation.raster's classes
 
 
 def _refine(classes, a, b, fa, fb, kind=2, normals=None):
     """One site (hidden unless ``classes`` says otherwise) and two anchors a, b (x + iy) with
     geodesics fa, fb, on a 2 m x 2 m block of four 1 m cells. ``classes``: (3,) class of a, b
     and the site's goal, the same from every cell."""
-    from sim.navigation.anchors import refine
+    from sim.spatial.navigation.anchors import refine
 
     grid = Grid(1.0, 1.0, 2, 2)
     cells = np.repeat(np.asarray(classes, dtype=np.uint8)[:, None], 4, axis=1)

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.navigation.buckets import MAX_CELLS, BoxBuckets, typical_size
+from sim.spatial.navigation.buckets import MAX_CELLS, BoxBuckets, typical_size
 
 coord = st.floats(-20.0, 40.0, allow_nan=False)
 box = st.tuples(coord, coord, st.floats(0.0, 6.0), st.floats(0.0, 6.0)).map(
@@ -73,8 +73,8 @@ def test_to_obstacle_over_grid_cells_is_the_full_pass_bit_for_bit(corners, seed)
     """``PathFollower.to_obstacle`` with the edge grid (``EdgeCells``) gives the very same
     vectors as a pass over every edge, for points inside, on cell borders and outside the
     grid, and for ties (points equally far from two edges: the first edge in both)."""
-    from sim.navigation.buckets import EdgeCells
-    from sim.navigation.paths import PathFollower
+    from sim.spatial.navigation.buckets import EdgeCells
+    from sim.spatial.navigation.paths import PathFollower
 
     rng = np.random.default_rng(seed)
     size = rng.uniform(0.2, 2.5, len(corners))
@@ -99,8 +99,8 @@ def test_edge_cells_list_few_edges_in_a_large_arena():
     """The 1000-robot bench arena (392 edges): each cell lists at most a tenth of them, so a
     query over 300 robots does a tenth of the arithmetic; the grid is not built for a handful
     of edges."""
-    from sim.bench_arena import bench_scenario
-    from sim.navigation.paths import PathFollower
+    from scenarios.bench.arena import bench_scenario
+    from sim.spatial.navigation.paths import PathFollower
 
     sp = bench_scenario(1000, np.random.default_rng(0), control_hz=10.0).spatial
     w, h = sp.width_m, sp.height_m
@@ -114,7 +114,7 @@ def test_edge_cells_list_few_edges_in_a_large_arena():
 def test_segment_distances_of_short_and_long_segments_against_sampled_points():
     """The point-to-segment distances EdgeCells keeps edges by, for segments from 1 mm to
     10 m (shorter than 1 m too, where a wrong normalisation would still pass long ones)."""
-    from sim.navigation.buckets import _segment_distances
+    from sim.spatial.navigation.buckets import _segment_distances
 
     rng = np.random.default_rng(4)
     e0 = rng.uniform(0, 10, 40) + 1j * rng.uniform(0, 10, 40)
@@ -146,7 +146,7 @@ def test_typical_size_is_the_median_longer_side_at_least_half_a_metre():
 def test_edge_cells_grid_covers_the_region_from_its_corner():
     """A 20 m x 10 m region far from the origin, 50 cells: 2 m cells, 10 x 5; the cell index
     is row * nx + column, and points outside (the far borders too) have none."""
-    from sim.navigation.buckets import EdgeCells
+    from sim.spatial.navigation.buckets import EdgeCells
 
     e0, e1 = np.array([100 + 50j]), np.array([120 + 50j])
     cells = EdgeCells(e0, e1, 100 + 50j, 120 + 60j, cells=50)
@@ -168,7 +168,7 @@ def test_edge_cells_grid_covers_the_region_from_its_corner():
     ],
 )
 def test_edge_cells_grid_size(hi, n, want):
-    from sim.navigation.buckets import EdgeCells
+    from sim.spatial.navigation.buckets import EdgeCells
 
     cells = EdgeCells(np.array([0j]), np.array([1 + 0j]), 0j, hi, cells=n)
     assert (cells.nx, cells.ny) == want
@@ -179,7 +179,7 @@ def test_edge_cells_keep_the_edges_within_reach_of_each_cell_in_index_order():
     (+1e-6 m) of its centre, padded with the index n of a far-away segment of length 0;
     checked against distances from the centres worked out one by one, over 600 cells (more
     than one pass of 256)."""
-    from sim.navigation.buckets import _FAR, EdgeCells
+    from sim.spatial.navigation.buckets import _FAR, EdgeCells
 
     rng = np.random.default_rng(9)
     e0 = rng.uniform(0, 60, 25) + 1j * rng.uniform(0, 40, 25)

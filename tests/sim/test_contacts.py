@@ -1,5 +1,5 @@
-"""Contacts as ``sim.contacts.ContactMonitor`` counts them: touch or impact by the closing speed
-along the contact normal as the contact begins, robot-robot apart from robot-wall, the solver
+"""Contacts as ``sim.spatial.contacts.ContactMonitor`` counts them: touch or impact by the closing
+speed along the contact normal as the contact begins, robot-robot apart from robot-wall, the solver
 iterations that follow the contacts, and the deepest overlap.
 
 Each case is a bare pymunk space with free bodies at set velocities (no damping, no gravity), so
@@ -13,7 +13,7 @@ import numpy as np
 import pymunk
 import pytest
 
-from sim.contacts import CONTACT_ITERATIONS, FREE_ITERATIONS, IMPACT_MPS, ContactMonitor
+from sim.spatial.contacts import CONTACT_ITERATIONS, FREE_ITERATIONS, IMPACT_MPS, ContactMonitor
 
 ROBOT, WALL = 1, 2
 R = 0.25

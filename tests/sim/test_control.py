@@ -2,7 +2,7 @@
 
 ``ScalarControl`` (robot by robot in Python) and ``ArrayControl`` (numpy over the robots) are run
 one period each from copies of the very same world state, period after period of a crowded run;
-the shared formulas of ``sim.drive_law`` give the same numbers on floats as on arrays.
+the shared formulas of ``sim.spatial.law.drive`` give the same numbers on floats as on arrays.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from sim import drive_law as law
-from sim.control import (
+from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.spatial.control import (
     CONTROLS,
     SMALL_TEAM,
     ArrayControl,
@@ -22,11 +22,11 @@ from sim.control import (
     ScalarControl,
     control_kind,
 )
-from sim.fleet import FleetState
-from sim.jobs import Jobs
-from sim.physics import PymunkWorld
-from sim.recording import WORKING
-from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.spatial.fleet import FleetState
+from sim.spatial.jobs import Jobs
+from sim.spatial.law import drive as law
+from sim.spatial.world import PymunkWorld
+from sim.states import WORKING
 from sim.tasks import Batch
 
 
@@ -174,8 +174,8 @@ def test_shared_formulas_give_the_same_numbers_on_floats_and_arrays():
 
 
 def test_the_law_s_formulas_give_the_numbers_worked_by_hand():
-    """Each formula of ``sim.drive_law`` on numbers worked out by hand (the parity test above
-    runs them on random numbers but cannot see a wrong formula both sides share)."""
+    """Each formula of ``sim.spatial.law.drive`` on numbers worked out by hand (the parity test
+    above runs them on random numbers but cannot see a wrong formula both sides share)."""
     assert law.steer_speeds(1.0, 2.0, 0.25, 3.0, -1.5, 1.2, math.sqrt) == (1.5, math.sqrt(2.65))
     # ORCA's preferred velocity: toward the aim, at the speed that still brakes within the gap
     pv = law.preferred_velocity(3 + 4j, 0.5, 0.0, 1.0, 1.5, math.sqrt, min)  # sqrt(0.5 * 2)
@@ -299,7 +299,7 @@ def test_both_controls_leave_the_same_state_in_the_hard_cases(
     and replans after it; without avoidance the array period looks for robots touching one at
     the site among neighbour pairs (``dense_max`` set below the team, as beyond 64 robots).
     Each case must show what it is there for."""
-    from sim.hardcases import CASES
+    from scenarios.experiments.hardcases import CASES
 
     kw = {} if drive is None else {"drive": drive}
     world, _ = CASES[case].build(robots, "scalar", avoidance, lambda s: np.asarray(s, float), **kw)

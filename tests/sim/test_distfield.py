@@ -8,11 +8,11 @@ import time
 import numpy as np
 import pytest
 
-from sim.bench_arena import bench_scenario
-from sim.navigation.distfield import SHARED, DistanceField, planner_obstacles
-from sim.navigation.planning import FIELD_MIN_ROBOTS, GridPlanner
-from sim.navigation.raster import FULL, NONE, PART, Grid, SightIndex, visibility
+from scenarios.bench.arena import bench_scenario
 from sim.scenario import DriveSpec, SpatialSpec
+from sim.spatial.navigation.distfield import SHARED, DistanceField, planner_obstacles
+from sim.spatial.navigation.planning import FIELD_MIN_ROBOTS, GridPlanner
+from sim.spatial.navigation.raster import FULL, NONE, PART, Grid, SightIndex, visibility
 
 BOX = ((8.0, 8.0), (12.0, 8.0), (12.0, 12.0), (8.0, 12.0))
 TRIANGLE = ((14.0, 2.0), (17.0, 2.0), (15.5, 6.0))

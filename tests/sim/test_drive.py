@@ -1,5 +1,5 @@
-"""The array controller (``sim.drive.DiffDriveController``) for the default robot, each number
-worked out by hand from ``DriveSpec()`` and a 0.1 s control period.
+"""The array controller (``sim.spatial.controller.DiffDriveController``) for the default robot, each
+number worked out by hand from ``DriveSpec()`` and a 0.1 s control period.
 
 DriveSpec(): radius 0.25 m, wheel base 0.4 m, wheels 0.08 m at up to 18.75 rad/s and 25 rad/s^2.
 So: top speed 1.5 m/s, top turn 1.5 / 0.2 = 7.5 rad/s, a rim changes by at most 25 x 0.08 x 0.1
@@ -14,9 +14,9 @@ import math
 import numpy as np
 import pytest
 
-from sim.drive import VERLET_SKIN_M, DiffDriveController
-from sim.drive_law import HEADING_GAIN, KEEP_RIGHT_GAIN
 from sim.scenario import DriveSpec
+from sim.spatial.controller import VERLET_SKIN_M, DiffDriveController
+from sim.spatial.law.drive import HEADING_GAIN, KEEP_RIGHT_GAIN
 
 EXACT = {"rel": 1e-12, "abs": 1e-12}
 

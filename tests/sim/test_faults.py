@@ -11,9 +11,9 @@ import pytest
 
 from scenarios.loader import parse_scenario, read_toml, resolve
 from sim.faults import FAULT_SPAWN_KEY, FaultModel, build_faults, fault_seed_sequence
-from sim.physics import PymunkWorld
-from sim.recording import DRIVING, IDLE
 from sim.scenario import DriveSpec, FaultSpec, RobotSpec, Scenario, SpatialSpec
+from sim.spatial.world import PymunkWorld
+from sim.states import DRIVING, IDLE
 from sim.tasks import Batch
 from sim.world import AbstractWorld
 
@@ -238,7 +238,7 @@ def test_a_way_only_a_broken_robot_blocks_waits_for_the_repair_then_the_task_is_
     the scenario's planner does. R2 does not fail as unreachable: it waits where it is (drawn
     as waiting, no stuck clock) until the repair 20 s after the breakdown; then R1 is sent on
     through the door and R2 drives to its site and does the task."""
-    from sim.recording import WAITING, shown_states
+    from sim.states import WAITING, shown_states
 
     world = _door_world(20.0, control)
     f, jobs = world.fleet, world.jobs
@@ -265,7 +265,7 @@ def test_a_way_only_a_broken_robot_blocks_waits_for_the_repair_then_the_task_is_
 def test_a_robot_lost_for_good_in_the_way_fails_the_task_with_why_after_the_wait():
     """Lost for good (no repair in sight), the task fails when its deadline, moved on by
     ``REPAIR_WAIT_S``, passes, with the reason: one failure, not a stuck robot."""
-    from sim.jobs import REPAIR_WAIT_S
+    from sim.spatial.jobs import REPAIR_WAIT_S
 
     world = _door_world(1e9)
     deadline = float(world.fleet.deadline_s[1])

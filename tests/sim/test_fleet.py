@@ -1,5 +1,5 @@
-"""The pymunk world's fleet state (``sim.fleet``): the documented starting values, the schedule
-a task event leaves, the clock, and the round trip through plain arrays."""
+"""The pymunk world's fleet state (``sim.spatial.fleet``): the documented starting values, the
+schedule a task event leaves, the clock, and the round trip through plain arrays."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.fleet import Clock, FleetState, Schedule, refresh_schedule
-from sim.recording import DRIVING, IDLE, WORKING
+from sim.spatial.fleet import Clock, FleetState, Schedule, refresh_schedule
+from sim.states import DRIVING, IDLE, WORKING
 
 STARTS = np.array([[1.0, 2.0], [3.5, 0.5], [6.0, 4.0]])
 

@@ -1,5 +1,5 @@
-"""The classic hard cases (``sim.hardcases``) and ``mrta hardcase``: numbers against the
-IR-SIM reference, the comparison without avoidance, the GIF, and one-line errors."""
+"""The classic hard cases (``scenarios.experiments.hardcases``) and ``mrta hardcase``: numbers
+against the IR-SIM reference, the comparison without avoidance, the GIF, and one-line errors."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from PIL import Image
 
 from scenarios.cli.app import main
-from sim.hardcases import CASES, circle, run_case
+from scenarios.experiments.hardcases import CASES, circle, run_case
 
 
 def test_circle_swap_of_ten_beats_the_reference_without_a_contact():
@@ -95,13 +95,13 @@ def test_the_corridor_jam_is_broken_at_pass_s_not_at_the_stuck_timeout(monkeypat
     and a margin of 2 s for the turns."""
     import dataclasses
 
-    import sim.jams
+    import sim.spatial.jams
     from sim.scenario import SpatialSpec
 
     stuck_s = {f.name: f.default for f in dataclasses.fields(SpatialSpec)}["stuck_timeout_s"]
-    pass_s = sim.jams.PASS_S
+    pass_s = sim.spatial.jams.PASS_S
     on = run_case("corridor")
-    monkeypatch.setattr(sim.jams, "PASS_S", 1e9)
+    monkeypatch.setattr(sim.spatial.jams, "PASS_S", 1e9)
     off = run_case("corridor")
     for out in (on, off):
         assert out["failed"] == 0 and out["still_driving"] == 0

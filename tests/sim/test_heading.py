@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from scenarios.loader import ScenarioError, load_scenario
-from sim.physics import PymunkWorld
 from sim.scenario import RobotSpec, Scenario, SpatialSpec
+from sim.spatial.world import PymunkWorld
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,4 +1,4 @@
-"""Task bookkeeping of the pymunk world (``sim.jobs.Jobs``), driven directly.
+"""Task bookkeeping of the pymunk world (``sim.spatial.jobs.Jobs``), driven directly.
 
 Each test builds a small world for its collaborators (fleet state, schedule, clock, follower,
 planner), sets the fleet state by hand and calls one event handler of ``world.jobs`` the way a
@@ -13,12 +13,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.jams import DEADLOCK_M
-from sim.jobs import BACKOFF_S, Jobs
-from sim.physics import PymunkWorld
-from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
-from sim.sites import SLOT_GAP_M, YIELD_TIMEOUT_S
+from sim.spatial.jams import DEADLOCK_M
+from sim.spatial.jobs import BACKOFF_S, Jobs
+from sim.spatial.sites import SLOT_GAP_M, YIELD_TIMEOUT_S
+from sim.spatial.world import PymunkWorld
+from sim.states import DRIVING, IDLE, WORKING
 from sim.tasks import Batch
 from sim.world import Completion
 
@@ -1203,7 +1203,7 @@ def _gap_world(second_gap_y: float, look_ahead: str = "off"):
     (1000 s), and a second gap centred at ``second_gap_y``; robot 0 drives from (3, 3) to
     (9, 3), straight through the first gap (the planner ignores robots; ``[spatial]
     look_ahead`` as given)."""
-    from sim.hardcases import swap_world
+    from scenarios.experiments.hardcases import swap_world
 
     lo, hi = second_gap_y - 0.7, second_gap_y + 0.7
     walls = [((5.9, a), (6.1, a), (6.1, b), (5.9, b)) for a, b in [(0, 2.3), (3.7, lo), (hi, 8)]]
@@ -1213,7 +1213,7 @@ def _gap_world(second_gap_y: float, look_ahead: str = "off"):
 
 def _arrive(world) -> tuple[float, float]:
     """When robot 0 starts work at its site (inf: not within 60 s), and the highest it went."""
-    from sim.hardcases import time_to_all_arrive
+    from scenarios.experiments.hardcases import time_to_all_arrive
 
     top = [0.0]
 
@@ -1230,12 +1230,12 @@ def test_a_robot_beside_one_at_work_at_another_site_goes_round_it_without_a_try(
     gap, 2.3 m longer, without spending a recovery try; with the rule off it waits for the
     stuck timeout and then goes round, spending one. Where the only way round is more than
     ``PASS_EXTRA_M`` longer the rule leaves every robot exactly as it was."""
-    import sim.jams
+    import sim.spatial.jams
 
-    pass_s = sim.jams.PASS_S
+    pass_s = sim.spatial.jams.PASS_S
     runs = {}
     for rule in (True, False):
-        monkeypatch.setattr(sim.jams, "PASS_S", pass_s if rule else 1e9)
+        monkeypatch.setattr(sim.spatial.jams, "PASS_S", pass_s if rule else 1e9)
         for gap_y in (5.0, 6.9):
             world = _gap_world(gap_y)
             runs[rule, gap_y] = world, *_arrive(world)
@@ -1254,16 +1254,16 @@ def test_going_round_skips_a_robot_at_work_for_the_same_site(monkeypatch):
     """The rule leaves a robot alone whose neighbour at work works for the robot's own site
     (the site's queue and slots decide who goes where), and re-plans it, through the second
     gap, when that robot works for another site: the same moment, called directly."""
-    import sim.jams
+    import sim.spatial.jams
 
-    monkeypatch.setattr(sim.jams, "PASS_S", 1e9)  # the rule off while the robot comes up
+    monkeypatch.setattr(sim.spatial.jams, "PASS_S", 1e9)  # the rule off while the robot comes up
     world = _gap_world(5.0)
     while world.time_s < 10.0:
         world.advance(0.1)
     f, jobs, t = world.fleet, world.jobs, world.time_s
     assert f.state[0] == DRIVING and f.state[1] == WORKING
     assert abs(f.v_cmd_mps[0]) < 0.1 and t - f.t_progress_s[0] >= 2.0
-    monkeypatch.setattr(sim.jams, "PASS_S", 2.0)
+    monkeypatch.setattr(sim.spatial.jams, "PASS_S", 2.0)
     before, clock = waypoints(world, 0).copy(), f.t_progress_s[0]
     own = jobs.sites.service[0]
     jobs.sites.service[0] = jobs.sites.service[1]  # as if both worked for one site
@@ -1328,7 +1328,7 @@ def test_a_jam_in_a_gap_is_acted_on_after_pass_s_not_the_stuck_timeout():
     """Head-on in the gap, both standing 2 s: robot 1 (the higher index, its way back free)
     backs out past where it was given its task and robot 0 waits for it, without waiting for
     the 20 s stuck timeout. Before ``PASS_S`` nothing happens."""
-    from sim.jams import PASS_S
+    from sim.spatial.jams import PASS_S
 
     w, t = _head_on(GAP, 20.0 + PASS_S - 0.1)
     w.jobs.jams.break_jams(t)
@@ -1350,7 +1350,7 @@ def test_on_open_floor_only_a_pair_standing_alone_is_a_jam():
     if that one stands too and no third driving robot is within ``DEADLOCK_M`` (a standoff
     of two); beside a moving one, or in a crowd, it is left to ORCA and the stuck timeout.
     In a single-lane gap it acts in the crowd too."""
-    from sim.jams import PASS_S
+    from sim.spatial.jams import PASS_S
 
     for floor in ((), AISLE):
         w, t = _head_on(floor, 20.0 + PASS_S)
@@ -1378,7 +1378,7 @@ def test_on_open_floor_only_a_pair_standing_alone_is_a_jam():
 
 
 def test_break_jams_leaves_a_robot_alone_beside_one_at_work_holding_or_backing_off():
-    from sim.jams import PASS_S
+    from sim.spatial.jams import PASS_S
 
     for change in ("working", "holding", "backoff", "moving"):
         w, t = _head_on(GAP, 20.0 + PASS_S)
@@ -1416,7 +1416,7 @@ def test_a_robot_plans_round_one_at_work_in_its_way_before_it_gets_there():
     with ``[spatial] look_ahead = "off"`` (the default: it drives up, stands ``PASS_S``
     beside the robot at work and goes round, ``pass_workers``), whose way is still the
     straight one then."""
-    import sim.jams
+    import sim.spatial.jams
 
     off = _gap_world(5.0)
     while off.fleet.state[1] != WORKING:
@@ -1431,7 +1431,7 @@ def test_a_robot_plans_round_one_at_work_in_its_way_before_it_gets_there():
     t_on, top_on = _arrive(world)
     t_off, top_off = _arrive(off)
     assert top_on > 4.3 and top_off > 4.3
-    assert np.isfinite(t_on) and t_on < t_off - sim.jams.PASS_S
+    assert np.isfinite(t_on) and t_on < t_off - sim.spatial.jams.PASS_S
 
 
 def test_looking_ahead_keeps_the_way_when_waiting_is_quicker_or_the_site_is_shared():
@@ -1441,9 +1441,9 @@ def test_looking_ahead_keeps_the_way_when_waiting_is_quicker_or_the_site_is_shar
     when the way round takes 0.1 s longer at top speed than the wait, and when robot 1 works
     for robot 0's own site (the site's queue and slots decide); with the wait 0.1 s longer
     than the way round it goes round. Called directly, at one moment."""
-    import sim.jams
+    import sim.spatial.jams
 
-    wait_s = sim.jams.AHEAD_WAIT_S
+    wait_s = sim.spatial.jams.AHEAD_WAIT_S
     world = _gap_world(6.9)  # look_ahead "off": only the direct calls below look
     f, jobs = world.fleet, world.jobs
     while f.state[1] != WORKING:
@@ -1460,7 +1460,7 @@ def test_looking_ahead_keeps_the_way_when_waiting_is_quicker_or_the_site_is_shar
         f.last_z_m[0] = complex(x, 3.0)
         assert (jobs.jams.waits(np.array([0]), np.array([1]), t)[0][0, 0] > 0) == waits
     f.last_z_m[0] = z0  # beside it already (within AHEAD_BLOCK_M along its way): pass_workers
-    grown = world.controller.radius_m + sim.jams.AHEAD_GROW_M
+    grown = world.controller.radius_m + sim.spatial.jams.AHEAD_GROW_M
     z = f.last_z_m
     way = world.planner.path_around((z[0].real, z[0].imag), (9.0, 3.0), z[[1]], grown)
     extra_s = float(np.abs(np.diff(way[:, 0] + 1j * way[:, 1])).sum()) - jobs.jams.way_left_m(0)

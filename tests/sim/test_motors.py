@@ -1,5 +1,5 @@
-"""Robot bodies and motor joints (``sim.motors.Motors``) in a bare pymunk space: what they are
-built with, what a read and a write do to the buffer and the bodies, and the checkpoint round
+"""Robot bodies and motor joints (``sim.spatial.motors.Motors``) in a bare pymunk space: what they
+are built with, what a read and a write do to the buffer and the bodies, and the checkpoint round
 trip."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import numpy as np
 import pymunk
 import pytest
 
-from sim.drive_law import ARC_MAX_RADIUS_M
-from sim.motors import Motors, _rows
 from sim.scenario import DriveSpec
+from sim.spatial.law.drive import ARC_MAX_RADIUS_M
+from sim.spatial.motors import Motors, _rows
 
 DRIVE = DriveSpec()
 STARTS = np.array([[1.0, 2.0], [4.0, 2.0], [7.0, 5.0]])
@@ -65,7 +65,7 @@ def test_one_heading_per_start_is_required():
 
 
 def test_robots_and_controls_must_be_runs_of_buffer_rows(monkeypatch):
-    import sim.motors
+    import sim.spatial.motors
 
     calls = []
 
@@ -73,7 +73,7 @@ def test_robots_and_controls_must_be_runs_of_buffer_rows(monkeypatch):
         calls.append(rows)
         return slice(rows[0], rows[0] + len(rows)) if len(calls) == 1 else np.array(rows)
 
-    monkeypatch.setattr(sim.motors, "_rows", scattered)
+    monkeypatch.setattr(sim.spatial.motors, "_rows", scattered)
     with pytest.raises(
         RuntimeError, match=r"^robots and control bodies must be runs of batch buffer rows$"
     ):

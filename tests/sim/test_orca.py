@@ -1,4 +1,4 @@
-"""ORCA (sim.control.orca): the small programs against brute force, and the classic hard cases
+"""ORCA (sim.spatial.law.orca): the small programs against brute force, and the classic hard cases
 in the pymunk world with our physics and wheel limits.
 
 Reference for the circle swap (SPEC §7): IR-SIM 2.12's RVO behaviour with its example parameters
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.control.orca import forward_speed, half_planes, solve
-from sim.hardcases import circle, swap_world, time_to_all_arrive
+from scenarios.experiments.hardcases import circle, swap_world, time_to_all_arrive
+from sim.spatial.law.orca import forward_speed, half_planes, solve
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])
@@ -43,7 +43,7 @@ def test_the_20_robot_circle_swap_holds_from_starts_moved_by_a_tenth_of_a_millim
     the reference's 23.1 s without a contact. With 6 neighbours per program and backing at up
     to 0.3 of the top speed (the law before), 13 of 29 such swaps touched (README, "Contacts in
     a dense crowd")."""
-    from sim.hardcases import run_case
+    from scenarios.experiments.hardcases import run_case
 
     for seed in range(1, 6):
         out = run_case("circle", 20, control, jitter_m=1e-4, seed=seed)
@@ -127,7 +127,7 @@ def test_forward_speed_keeps_the_driven_velocity_in_every_half_plane():
     """Exactly without slack; with ``slack``, a line the heading runs nearly along (``|n . h|``
     below ``SLACK_SHALLOW``) may be closed on at that speed and no faster; a line it crosses
     more steeply, not at all."""
-    from sim.control.orca import SLACK_SHALLOW
+    from sim.spatial.law.orca import SLACK_SHALLOW
 
     normal = np.array([[-1.0 + 0j, 1j]])  # u.x <= 0.4, u.y >= -0.2
     offset = np.array([[-0.4, -0.2]])
@@ -169,7 +169,7 @@ def test_a_robot_frozen_on_a_line_is_released_by_the_slack(monkeypatch):
     proportional to 2e-4 rad, never brings the heading across. With the slacks (the law's
     defaults) it drives along the wall (the wall program, ``WALL_SLACK_MPS``) and along a
     robot's line (the robot program, ``ROBOT_SLACK_MPS``), each knob for its own lines."""
-    from sim.control import orca
+    from sim.spatial.law import orca
 
     radius = 0.25
     on_line = radius + orca.MARGIN_M + orca.WALL_GAP_M
@@ -254,7 +254,7 @@ def test_in_a_narrow_lane_orca_keeps_the_velocity_inside_the_free_width(monkeypa
     lane's half-planes the chosen velocity moves right at most (0.06 - LANE_AIR_M) /
     TAU_OBSTACLE_S; without them, in a lane wider than LANE_NARROW_M or with no wall within
     LANE_NEAR_M of the body, they do not apply."""
-    from sim.control import orca
+    from sim.spatial.law import orca
 
     got = []
     inner = orca.solve
@@ -293,7 +293,13 @@ def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it(
     velocity in the half-plane, less ``WALL_SLACK_MPS`` (the wall program never backs) and it turns
     toward the velocity nearest its preferred one, along the wall, away from it. Heading along
     the wall at 0.5 m from it, nothing binds: None (its plan stays)."""
-    from sim.control.orca import MARGIN_M, TAU_OBSTACLE_S, WALL_GAP_M, WALL_SLACK_MPS, steer_walls
+    from sim.spatial.law.orca import (
+        MARGIN_M,
+        TAU_OBSTACLE_S,
+        WALL_GAP_M,
+        WALL_SLACK_MPS,
+        steer_walls,
+    )
 
     radius, dist = 0.25, 0.32
     wall = lambda pts: np.full(len(pts), -1j * dist)  # noqa: E731  a wall below each robot
@@ -323,7 +329,7 @@ def test_the_right_hand_bias_holds_only_where_the_body_has_room_to_the_nearest_o
     points right of its heading and it turns right. With ``BIAS_ROOM_M`` = 1 m (the variant
     the README measures) only where the body has more room than that; with less it keeps its
     heading (the velocity nearest 1 m/s east is 0.2 m/s east). Both sides of the threshold."""
-    from sim.control import orca
+    from sim.spatial.law import orca
 
     radius = 0.25
     normal, offset = np.array([[-1.0 + 0j]]), np.array([[-0.2]])
@@ -352,7 +358,7 @@ def test_the_wall_program_never_backs_a_robot_up():
     facing it at every angle from head-on to along it, planning 0.2 to 1.5 m/s: every speed
     the program sets is >= 0, and where the robot is inside the line (the line wants it to move
     away) it stops and turns away from the wall."""
-    from sim.control.orca import MARGIN_M, steer_walls
+    from sim.spatial.law.orca import MARGIN_M, steer_walls
 
     radius = 0.25
     dists = np.linspace(0.26, 0.6, 9)
@@ -437,8 +443,8 @@ def gap_world(start, goal, idle, heading_deg: float, control: str):
     """The warehouse's cross aisle: a 1 m gap (x 5.5-6.5 m) in a 1 m thick wall (y 4-5 m) in a
     12 x 9 m arena, warehouse robots; robot 0 at ``start`` sent to ``goal``, robot 1 idle at
     ``idle``, both facing ``heading_deg``; stuck timeout 6 s."""
-    from sim.physics import PymunkWorld
     from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+    from sim.spatial.world import PymunkWorld
     from sim.tasks import Batch
 
     walls = (
@@ -493,7 +499,7 @@ def test_an_idle_robot_asked_aside_steps_off_the_driving_robot_s_way_not_into_it
     its path) and not, as a step sideways of robot 0's heading did, 1 m south into the gap
     (then robot 0 pushed it through the gap ahead of itself: 18.0 s instead of 8.5 s; in the
     warehouse, market, seed 6, a robot stood at such a gap's mouth until its task failed)."""
-    from sim.jobs import _to_polyline
+    from sim.spatial.jobs import _to_polyline
 
     world = gap_world((8.5, 5.9), (6.0, 1.0), (6.0, 5.6), 180.0, control)
     z, fol = world.fleet.last_z_m, world.jobs.follower
@@ -509,7 +515,7 @@ def test_an_idle_robot_asked_aside_steps_off_the_driving_robot_s_way_not_into_it
 
 
 def test_distance_to_a_polyline():
-    from sim.jobs import _to_polyline
+    from sim.spatial.jobs import _to_polyline
 
     way = np.array([0.0, 4.0, 4.0 + 3.0j])
     got = _to_polyline(np.array([2.0 + 1.0j, 5.0 + 1.0j, -3.0 + 4.0j, 4.0 + 5.0j]), way)
@@ -522,9 +528,9 @@ def test_the_wall_screen_drops_only_robots_whose_lines_cannot_bind():
     measured less the way the robot moved since. Over 40 periods of 300 robots wandering among
     boxes, at random speeds, the commands from the screened robots equal, bit for bit, those
     from every robot, and the screen drops most of them."""
-    from sim.control.avoidance import near_walls
-    from sim.control.orca import steer_walls
-    from sim.navigation.paths import PathFollower
+    from sim.spatial.control.avoidance import near_walls
+    from sim.spatial.law.orca import steer_walls
+    from sim.spatial.navigation.paths import PathFollower
 
     rng = np.random.default_rng(7)
     boxes = [

@@ -1,9 +1,9 @@
-"""The fast ORCA paths (``sim.control.orca``: the staged ``solve``; ``sim.control.orca_small``:
-``avoid_small`` and its screen ``may_bind``) against the law as it was computed before them,
-kept here as the reference: every candidate enumerated for every row (``solve_reference``)
-inside the array ``avoid`` of commit 5f5188e (``avoid_reference``). Both must give the same
-commands bit for bit: the golden runs with avoidance on (``tests/test_golden.py``) hold them to
-it too.
+"""The fast ORCA paths (``sim.spatial.law.orca``: the staged ``solve``;
+``sim.spatial.control.orca_small``: ``avoid_small`` and its screen ``may_bind``) against the law as
+it was computed before them, kept here as the reference: every candidate enumerated for every row
+(``solve_reference``) inside the array ``avoid`` of commit 5f5188e (``avoid_reference``). Both must
+give the same commands bit for bit: the golden runs with avoidance on (``tests/test_golden.py``)
+hold them to it too.
 """
 
 from __future__ import annotations
@@ -11,8 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.control import orca, orca_small
-from sim.control.orca import (
+from sim.spatial.control import orca_small
+from sim.spatial.law import orca
+from sim.spatial.law.drive import COS_TURN, HEADING_GAIN
+from sim.spatial.law.orca import (
     _BIG,
     BIAS_ROOM_M,
     KEEP_RIGHT,
@@ -31,7 +33,6 @@ from sim.control.orca import (
     obstacle_plane,
     orca_range_m,
 )
-from sim.drive_law import COS_TURN, HEADING_GAIN
 
 
 def solve_reference(
@@ -89,10 +90,10 @@ def avoid_reference(
     to_obstacle,
     lanes=None,
 ):
-    """``sim.control.orca.avoid`` of commit 5f5188e (then ``sim.orca.avoid``), before the
+    """``sim.spatial.law.orca.avoid`` of commit 5f5188e (then ``sim.orca.avoid``), before the
     staged solve: the oracle; its right-hand bias since taken only where the body has more
     than ``BIAS_ROOM_M`` of room to the nearest obstacle, and its forward program with the
-    slacks, as the law now does. Arguments and result as ``sim.control.orca.avoid``."""
+    slacks, as the law now does. Arguments and result as ``sim.spatial.law.orca.avoid``."""
     reach = orca_range_m(radius_m, v_max)
     table = neighbour_table(z, rows, reach)
     if table is None:
@@ -341,7 +342,7 @@ def test_the_bench_times_avoidance_inside_the_loop():
 
 
 def test_the_small_team_path_reads_the_law_s_knobs_where_the_law_does(monkeypatch):
-    """``sim.control.orca``'s constants are the knobs the README's variants edit (one edit plus
+    """``sim.spatial.law.orca``'s constants are the knobs the README's variants edit (one edit plus
     a repo command). The small-team path must read them where the law does: with fewer
     neighbours, a shorter horizon and a wider margin, ``avoid_small`` still gives ``avoid``'s
     commands bit for bit, and those differ from the defaults' on some scenes (once the small

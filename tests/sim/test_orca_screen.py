@@ -1,6 +1,6 @@
-"""The plain-Python first steps of the small-team ORCA path (``sim.control.orca_small``) held
-to the law's own numbers, not only to its commands: ``half_plane_one`` is the law's half-plane
-(``sim.control.orca.half_planes``) to rounding, in every one of its branches; ``binding`` finds
+"""The plain-Python first steps of the small-team ORCA path (``sim.spatial.control.orca_small``)
+held to the law's own numbers, not only to its commands: ``half_plane_one`` is the law's half-plane
+(``sim.spatial.law.orca.half_planes``) to rounding, in every one of its branches; ``binding`` finds
 exactly the robots whose plan leaves one of their nearest robots' half-planes, with those
 neighbours, and hands a scene to the law only where rounding could decide; ``may_bind`` keeps
 exactly the robots with a half-plane their plan leaves.
@@ -15,8 +15,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.control import orca, orca_small
-from sim.control.orca import MARGIN_M, MAX_NEIGHBOURS, TAU_S, half_planes, orca_range_m
+from sim.spatial.control import orca_small
+from sim.spatial.law import orca
+from sim.spatial.law.orca import MARGIN_M, MAX_NEIGHBOURS, TAU_S, half_planes, orca_range_m
 
 RADIUS, V_MAX, DT = 0.25, 1.0, 0.1
 COMBINED = 2.0 * (RADIUS + MARGIN_M)
@@ -257,7 +258,7 @@ def test_forward_speed_honours_lines_that_ask_for_a_least_forward_speed():
     hand: heading 60 degrees off the line's normal, c = 0.3: at least 0.6 m/s; with a second
     line capping it at 0.4 the program has no solution and the robot takes the middle, 0.5;
     a line the heading runs nearly along (3 degrees) asks for its least speed less the slack."""
-    from sim.control.orca import forward_speed
+    from sim.spatial.law.orca import forward_speed
 
     h = np.array([np.exp(1j * np.radians(60.0))])
     floor = np.array([[1.0 + 0j]]), np.array([[0.3]])
@@ -279,7 +280,7 @@ def test_the_wall_screen_measures_the_way_moved_in_the_plane():
     beyond reach. The way moved is a distance in the plane: a robot measured 3 m from the
     wall at (0, 5) and now at (0.1, 0), 0.3 m from it, must be looked at again; one that
     moved 0.4 m along the wall is not (the screen asks for no distance: it saves the query)."""
-    from sim.control.avoidance import near_walls
+    from sim.spatial.control.avoidance import near_walls
 
     class Follower:
         asked = 0

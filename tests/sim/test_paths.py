@@ -1,5 +1,5 @@
-"""Path following (``sim.navigation.paths.PathFollower``): each number it keeps, against geometry
-worked out another way.
+"""Path following (``sim.spatial.navigation.paths.PathFollower``): each number it keeps, against
+geometry worked out another way.
 
 Free widths against a brute-force distance between densely sampled segments and obstacle
 outlines, path lengths and corner speeds against values worked by hand, the waypoint rules
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.navigation.paths import (
+from sim.spatial.navigation.paths import (
     LOOKAHEAD_M,
     SCALAR_FREE_MAX,
     WAYPOINT_SWITCH_M,

@@ -1,8 +1,8 @@
 """The pymunk world: no sideways slip, no ramming, no deadlock, no hang, exact replays.
 
 Behaviour tests run through both control paths: robot by robot in Python
-(``sim.control.ScalarControl``, small teams) and over numpy arrays (``sim.control.ArrayControl``,
-larger teams).
+(``sim.spatial.control.ScalarControl``, small teams) and over numpy arrays
+(``sim.spatial.control.ArrayControl``, larger teams).
 """
 
 from __future__ import annotations
@@ -12,16 +12,17 @@ import itertools
 import numpy as np
 import pytest
 
-import sim.contacts
+import sim.spatial.contacts
 from allocation.auction import MarketAllocator
 from allocation.costs import make_cost_model
 from learning.episode import run_protocol
-from sim.drive import DiffDriveController
-from sim.navigation.paths import PathFollower
-from sim.navigation.planning import polygon_signed_distance
-from sim.physics import PymunkWorld
-from sim.recording import DRIVING, IDLE, WORKING, TrajectoryRecorder
+from sim.recording import TrajectoryRecorder
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec, StreamSpec
+from sim.spatial.controller import DiffDriveController
+from sim.spatial.navigation.paths import PathFollower
+from sim.spatial.navigation.planning import polygon_signed_distance
+from sim.spatial.world import PymunkWorld
+from sim.states import DRIVING, IDLE, WORKING
 from sim.tasks import Batch, generate_stream
 
 R = DriveSpec().radius_m
@@ -358,7 +359,7 @@ def test_one_solver_iteration_is_exact_while_nothing_touches(monkeypatch):
         return np.array(poses)
 
     adaptive = run()
-    monkeypatch.setattr(sim.contacts, "FREE_ITERATIONS", 10)
+    monkeypatch.setattr(sim.spatial.contacts, "FREE_ITERATIONS", 10)
     assert np.array_equal(run(), adaptive)
 
 
@@ -604,14 +605,14 @@ def test_dropped_spaces_are_freed_once_they_hold_gc_robots_and_the_rest_at_once(
     import gc
     import weakref
 
-    import sim.physics
+    import sim.spatial.world
 
-    monkeypatch.setattr(sim.physics, "GC_ROBOTS", 6)
+    monkeypatch.setattr(sim.spatial.world, "GC_ROBOTS", 6)
     world = PymunkWorld(scenario([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)]))
     send(world, [0, 1], [(12.0, 2.0), (12.0, 6.0)])
     world.drain()  # their tasks done, the set ends: a 3-robot space dropped, not yet collected
     assert world.dropped_robots_ == 3
-    monkeypatch.setattr(sim.physics, "GC_ROBOTS", 9)  # from here, three 3-robot spaces
+    monkeypatch.setattr(sim.spatial.world, "GC_ROBOTS", 9)  # from here, three 3-robot spaces
     gc.collect()
     gc.disable()
     try:

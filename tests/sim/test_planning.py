@@ -9,8 +9,8 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from sim.navigation.planning import GridPlanner, inflate, polygon_signed_distance
 from sim.scenario import DriveSpec, SpatialSpec
+from sim.spatial.navigation.planning import GridPlanner, inflate, polygon_signed_distance
 
 C = np.array([1.0, 1j])
 
@@ -213,7 +213,7 @@ def test_blocked_in_small_chunks_decides_as_in_one(monkeypatch):
     """``blocked`` splits many segments into chunks of at most ``_CHUNK`` (segment, edge)
     entries: with chunks of a few segments, some meeting no obstacle at all, every segment is
     decided as in one chunk (and as ``blocked_one`` decides it)."""
-    import sim.navigation.planning
+    import sim.spatial.navigation.planning
 
     planner = GridPlanner(spatial((BOX, TRIANGLE)))
     rng = np.random.default_rng(5)
@@ -221,7 +221,9 @@ def test_blocked_in_small_chunks_decides_as_in_one(monkeypatch):
     b[::3] = a[::3] + 0.2  # short segments, most of them meeting no obstacle's box
     whole = planner.blocked(a, b)
     assert 50 < whole.sum() < 550
-    monkeypatch.setattr(sim.navigation.planning, "_CHUNK", 3 * 2 * planner.normals_.shape[1])
+    monkeypatch.setattr(
+        sim.spatial.navigation.planning, "_CHUNK", 3 * 2 * planner.normals_.shape[1]
+    )
     np.testing.assert_array_equal(planner.blocked(a, b), whole)  # chunks of three segments
     single = [planner.blocked_one(*p, *q) for p, q in zip(a.tolist(), b.tolist(), strict=True)]
     assert single == whole.tolist()

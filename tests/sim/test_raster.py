@@ -1,4 +1,4 @@
-"""The raster of shadows (`sim.navigation.raster`), function by function: hand-worked cases
+"""The raster of shadows (`sim.spatial.navigation.raster`), function by function: hand-worked cases
 and brute force (half-planes clipped cell by cell, segments clipped polygon by polygon).
 
 `tests/sim/test_distfield.py` checks that the raster is *sound* (a FULL cell is never blocked,
@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from sim.navigation.raster import (
+from sim.spatial.navigation.raster import (
     FULL,
     NONE,
     PART,

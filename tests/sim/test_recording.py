@@ -8,16 +8,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from sim.recording import (
-    DRIVING,
-    IDLE,
-    WAITING,
-    WORKING,
-    Trajectory,
-    TrajectoryRecorder,
-    shown_states,
-)
+from sim.recording import Trajectory, TrajectoryRecorder
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.states import DRIVING, IDLE, WAITING, WORKING, shown_states
 
 TRIANGLE = ((1.0, 1.0), (2.0, 1.0), (1.5, 2.0))
 SQUARE = ((4.0, 4.0), (5.0, 4.0), (5.0, 5.0), (4.0, 5.0))

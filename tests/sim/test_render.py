@@ -16,12 +16,13 @@ from matplotlib.colors import to_rgb
 from matplotlib.path import Path as MplPath
 from PIL import Image
 
-from sim.recording import DRIVING, IDLE, WAITING, WORKING, Trajectory
+from scenarios.bench.synthetic import synthetic_trajectory
+from sim.recording import Trajectory
 from sim.render import frame_times, render_frame, render_frames, render_gif, render_mp4
 from sim.render.scene import FrameScene
 from sim.render.style import STATE_FILL, WAIT_RING, type_colours
 from sim.render.timeline import robot_poses_at, task_counts_at, task_view_at
-from sim.synthetic import synthetic_trajectory
+from sim.states import DRIVING, IDLE, WAITING, WORKING
 
 SIZE = (400, 400)
 REPO = Path(__file__).resolve().parents[2]
@@ -330,7 +331,8 @@ def test_renders_without_display_or_mplbackend(tmp_path):
     }
     script = (
         "import sys, numpy as np, matplotlib\n"
-        "from sim.render import render_gif, synthetic_trajectory\n"
+        "from sim.render import render_gif\n"
+        "from scenarios.bench.synthetic import synthetic_trajectory\n"
         "tr = synthetic_trajectory(np.random.default_rng(1), robots=3, seconds=8.0, tasks=4)\n"
         "render_gif(tr, sys.argv[1], frames=3, size=(128, 128))\n"
         "print(matplotlib.get_backend(auto_select=False), 'matplotlib.pyplot' in sys.modules)\n"

@@ -1,7 +1,7 @@
 """Waiting for a repair (``Jobs.wait_for_repair``, ``retry_blocked``, and the ways in:
 ``assign`` and ``replan``) with planners set by hand: the world's planner sees a plug in
 the only gap (where broken robots stand), the scenario's planner does not. Written for the
-gaps mutation run H found in ``sim/jobs.py`` (README, "Testing"); the whole story with a
+gaps mutation run H found in ``sim/spatial/jobs.py`` (README, "Testing"); the whole story with a
 robot that breaks down is in ``test_faults.py``.
 """
 
@@ -11,8 +11,8 @@ import dataclasses
 
 import numpy as np
 
-from sim.jobs import REPAIR_WAIT_S
-from sim.navigation.planning import GridPlanner
+from sim.spatial.jobs import REPAIR_WAIT_S
+from sim.spatial.navigation.planning import GridPlanner
 from tests.sim.test_jobs import GAP, at, give, make_world, waypoints
 
 PLUG = ((9.8, 4.5), (10.2, 4.5), (10.2, 5.5), (9.8, 5.5))  # broken robots fill the gap

@@ -1,4 +1,4 @@
-"""Site queues and going round (``sim.jobs.Jobs`` with collision avoidance on), driven
+"""Site queues and going round (``sim.spatial.jobs.Jobs`` with collision avoidance on), driven
 directly as in ``test_jobs.py``: who is let in, who holds and is drawn as waiting, who drives
 out, and the path round a jam (``GridPlanner.path_around``)."""
 
@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.hardcases import circle, swap_world
-from sim.jams import AROUND_M
-from sim.recording import DRIVING, IDLE, WAITING, WORKING, shown_states
-from sim.sites import EXIT_M, EXIT_TIMEOUT_S, HOLD_MAX_S, QUEUE_M
+from scenarios.experiments.hardcases import circle, swap_world
+from sim.spatial.jams import AROUND_M
+from sim.spatial.sites import EXIT_M, EXIT_TIMEOUT_S, HOLD_MAX_S, QUEUE_M
+from sim.states import DRIVING, IDLE, WAITING, WORKING, shown_states
 from tests.sim.test_jobs import at, give, make_world, orca_world, waypoints
 
 SITE = 10 + 5j
@@ -226,7 +226,7 @@ def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_pa
     """More than LOCAL_MIN_VERTICES obstacle vertices: the throwaway planner keeps only the
     obstacles near the start, the goal and the robots; round one robot in open floor that
     gives the path the whole arena gives."""
-    import sim.navigation.planning as planning
+    import sim.spatial.navigation.planning as planning
     from sim.scenario import DriveSpec, SpatialSpec
 
     boxes = tuple(
@@ -336,7 +336,7 @@ def test_leave_needs_the_robot_near_the_site_not_broken_and_someone_coming():
 
 
 def test_clearance_measures_to_the_segment_not_the_line_beyond_it():
-    from sim.sites import Sites
+    from sim.spatial.sites import Sites
 
     ends = np.array([4.0 + 0j])
     others = np.array([7.0 + 4.0j, 2.0 - 1.0j])  # 5 m beyond the end; 1 m beside the middle

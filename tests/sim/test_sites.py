@@ -1,4 +1,4 @@
-"""``sim.sites.Sites`` method by method: what each writes, what it returns, when it asks for
+"""``sim.spatial.sites.Sites`` method by method: what each writes, what it returns, when it asks for
 the schedule to be refreshed, and its checkpoint. Written for the gaps mutation run H found
 (README, "Testing"); the queue as a whole is in ``test_site_queue.py``.
 
@@ -14,8 +14,8 @@ import io
 import numpy as np
 import pytest
 
-from sim.recording import IDLE, WORKING
-from sim.sites import EXIT_M, HOLD_MAX_S, PULL_GAP_M, QUEUE_M, SLOT_GAP_M
+from sim.spatial.sites import EXIT_M, HOLD_MAX_S, PULL_GAP_M, QUEUE_M, SLOT_GAP_M
+from sim.states import IDLE, WORKING
 from tests.sim.test_jobs import SHELF, at, give, orca_world, service, slot, waypoints
 from tests.sim.test_site_queue import SITE, crowd, full_site
 

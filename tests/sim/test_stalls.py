@@ -1,4 +1,5 @@
-"""Where driving robots stand still (``sim.stalls``): causes counted exactly, and in the world."""
+"""Where driving robots stand still (``sim.spatial.stalls``): causes counted exactly, and in the
+world."""
 
 from __future__ import annotations
 
@@ -7,9 +8,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from sim.hardcases import swap_world, time_to_all_arrive
-from sim.recording import DRIVING, IDLE, WORKING
-from sim.stalls import CAUSES, LONG_S, NEAR_M, STILL_MPS, StallMeter, nearest_other
+from scenarios.experiments.hardcases import swap_world, time_to_all_arrive
+from sim.spatial.stalls import CAUSES, LONG_S, NEAR_M, STILL_MPS, StallMeter, nearest_other
+from sim.states import DRIVING, IDLE, WORKING
 
 
 def _fleet(state, v, xy, th_deg, task=None):
@@ -26,10 +27,10 @@ def _fleet(state, v, xy, th_deg, task=None):
 @pytest.fixture(params=["python", "numpy"])
 def counting(request, monkeypatch):
     """Both ways a period is counted: robot by robot (a small team) and over numpy arrays."""
-    import sim.stalls
+    import sim.spatial.stalls
 
     if request.param == "numpy":
-        monkeypatch.setattr(sim.stalls, "SMALL_MAX", 0)
+        monkeypatch.setattr(sim.spatial.stalls, "SMALL_MAX", 0)
     return request.param
 
 
@@ -104,7 +105,7 @@ def test_the_map_puts_each_still_period_in_the_cell_of_its_robot(counting):
     """The map holds exactly the counted periods, by cause, in the 0.5 m cell of the robot's
     centre (a robot pushed outside the arena counts in the border cell); without an arena
     there is no map, and a large arena gets cells coarse enough for ``MAP_MAX_CELLS``."""
-    from sim.stalls import MAP_MAX_CELLS
+    from sim.spatial.stalls import MAP_MAX_CELLS
 
     d, w = DRIVING, WORKING
     state = [d, d, w, d, d, d]

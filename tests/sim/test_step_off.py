@@ -1,6 +1,6 @@
 """``Jobs.step_off`` (an idle robot steps off a stuck robot's way) and ``_to_polyline``, on
 scenes set by hand: which end point each rule picks. Written for the gaps mutation run H
-found in ``sim/jobs.py`` (README, "Testing").
+found in ``sim/spatial/jobs.py`` (README, "Testing").
 
 Robot 0 is the stuck robot j; the idle robot k steps ``YIELD_STEP_M`` (1 m), else 2 m, to
 the side of j's way away from j, the other side, or straight on; an end must be half a
@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.jobs import _to_polyline
+from sim.spatial.jobs import _to_polyline
 from tests.sim.test_jams import set_way
 from tests.sim.test_jobs import orca_world
 

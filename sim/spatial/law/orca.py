@@ -56,8 +56,8 @@ the optimum of a convex quadratic over half-planes and a disc is the preferred v
 projection on one line, the crossing of two lines or a point where a line meets the circle.
 :func:`solve` tries the first two kinds and enumerates every candidate (:func:`solve_enumerated`)
 only for the robots left over. One module, one law, called by both control periods
-(``sim.control``) on the robots near others only; for a small team
-(``sim.control.orca_small.avoid_small``) the neighbours and the test whether a plan leaves a
+(``sim.spatial.control``) on the robots near others only; for a small team
+(``sim.spatial.control.orca_small.avoid_small``) the neighbours and the test whether a plan leaves a
 half-plane run in plain Python first, and the commands come from the same numpy code, bit for
 bit.
 """
@@ -67,7 +67,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.drive_law import COS_TURN, HEADING_GAIN
+from sim.spatial.law.drive import COS_TURN, HEADING_GAIN
 
 TAU_S = 1.5  # time horizon toward other robots, s
 TAU_OBSTACLE_S = 0.6  # ... toward walls and obstacles, s
@@ -411,8 +411,8 @@ def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, l
 
 def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=None):
     """Walls as ORCA lines for robots that no robot half-plane binds: of robots ``rows`` (those
-    that steer themselves and could be within reach of a wall, ``sim.control.avoidance``), the
-    ones whose plan ``v_plan`` along the heading leaves an obstacle or lane half-plane
+    that steer themselves and could be within reach of a wall, ``sim.spatial.control.avoidance``),
+    the ones whose plan ``v_plan`` along the heading leaves an obstacle or lane half-plane
     (:func:`wall_lines`) take the velocity nearest their preferred one ``pref`` inside them
     (sliding along the wall rather than creeping into it) and the forward speed along the
     heading that keeps them, at most ``|v_plan|`` (the caps toward robots stay) and never

@@ -10,7 +10,7 @@ still be there when it comes plans round it beforehand, if that is quicker than 
 (:meth:`Jams.look_ahead`);
 a jam in a single-lane place, or two robots standing together alone, is acted on after
 ``PASS_S`` rather than at the stuck timeout (:meth:`Jams.break_jams`).
-:class:`~sim.jobs.Jobs` owns one: its stuck recovery calls the first two, and the pymunk
+:class:`~sim.spatial.jobs.Jobs` owns one: its stuck recovery calls the first two, and the pymunk
 world calls the last two after each control period.
 """
 
@@ -20,14 +20,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from sim.drive import DiffDriveController
-from sim.fleet import PROGRESS_M, FleetState
-from sim.navigation.paths import PathFollower
-from sim.navigation.planning import GridPlanner
-from sim.recording import DRIVING, WORKING
 from sim.scenario import SpatialSpec
-from sim.sites import SLOT_GAP_M, Sites
-from sim.stalls import NEAR_M, STILL_MPS, nearest_other
+from sim.spatial.controller import DiffDriveController
+from sim.spatial.fleet import PROGRESS_M, FleetState
+from sim.spatial.navigation.paths import PathFollower
+from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.sites import SLOT_GAP_M, Sites
+from sim.spatial.stalls import NEAR_M, STILL_MPS, nearest_other
+from sim.states import DRIVING, WORKING
 
 DEADLOCK_M = 1.5  # driving robots this close, one of them stuck: a deadlock (avoidance on)
 AROUND_M = 3.0  # avoidance on: a stuck robot plans round the robots this close (centres), m
@@ -57,7 +57,8 @@ class Jams:
         controller: the drive limits (robot radius).
         spatial: the world's spatial table (``max_recoveries``: tries, shared with the stuck
             recovery).
-        refresh: brings the schedule up to date after an event (:meth:`sim.jobs.Jobs.refresh`).
+        refresh: brings the schedule up to date after an event
+        (:meth:`sim.spatial.jobs.Jobs.refresh`).
 
     Attributes (per robot, (m,)):
         origin: where it was given its task (x + iy), m: a robot that gives way backs out
@@ -271,7 +272,7 @@ class Jams:
         and ORCA sorts them out, so the rule stays out of its way. Robots facing each other
         in a gap stand until one of them acts: without this rule each such meeting cost the
         whole ``stuck_timeout_s`` (6 s in the warehouse) before anyone moved. The tries are
-        counted as in :meth:`sim.jobs.Jobs.recover`; a robot for which neither applies waits
+        counted as in :meth:`sim.spatial.jobs.Jobs.recover`; a robot for which neither applies waits
         for the stuck timeout as before."""
         f, z = self.fleet, self.fleet.last_z_m
         near = self.standing_near(t) if near is None else near

@@ -2,17 +2,17 @@
 
 A differential-drive robot turns its wheels at rim speeds u_r, u_l (m/s); its body moves at
 v = (u_r + u_l) / 2 along its heading and turns at omega = (u_r - u_l) / b, never sideways. The
-controller aims each robot at a point on its path (``sim.navigation.paths.PathFollower``), slows
-down for corners, for the final goal, for the robots around it and for obstacles it has been pushed
-close to, and returns the (v, omega) command after the wheel-speed limit (both wheels scaled, so the
-curvature is kept) and the wheel-acceleration limit (braking first: a robot that must slow down
-gets its full deceleration and turns with what the wheels have left).
+controller aims each robot at a point on its path (``sim.spatial.navigation.paths.PathFollower``),
+slows down for corners, for the final goal, for the robots around it and for obstacles it has been
+pushed close to, and returns the (v, omega) command after the wheel-speed limit (both wheels scaled,
+so the curvature is kept) and the wheel-acceleration limit (braking first: a robot that must slow
+down gets its full deceleration and turns with what the wheels have left).
 
 Everything is numpy over the robot axis, with as few array operations per control period as the
 law allows: for small teams the per-call overhead of numpy, not the arithmetic, is the cost.
 Points and headings are complex numbers (x + iy and e^{i theta}): one complex multiply rotates a
 vector into a robot's frame. Wheel state is kept as (v, q = omega b / 2): rim speeds v +- q.
-The robots' bodies and motors are :class:`sim.motors.Motors`.
+The robots' bodies and motors are :class:`sim.spatial.motors.Motors`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.drive_law import (
+from sim.scenario import DriveSpec
+from sim.spatial.law.drive import (
     COS_AHEAD,
     COS_TURN,
     HEADING_GAIN,
@@ -37,7 +38,6 @@ from sim.drive_law import (
     stopping_time_s,
     twist_from_rims,
 )
-from sim.scenario import DriveSpec
 
 DENSE_MAX = 64  # up to this many robots the neighbour search is one (m, m) array
 VERLET_SKIN_M = 1.0  # beyond DENSE_MAX: the neighbour list holds pairs this much beyond look_m
@@ -103,7 +103,7 @@ class DiffDriveController:
     def _cap(self, share: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Top speed that covers at most ``share`` toward an obstacle at bearing cosine ``tau``
         (> 0) when held for the reaction time and then braked at ``yield_mps2``; at least the
-        creep speed toward it (:func:`sim.drive_law.approach_cap_mps`)."""
+        creep speed toward it (:func:`sim.spatial.law.drive.approach_cap_mps`)."""
         cap, creep = approach_cap_mps(share, tau, self.two_a_, self.at_, self.at2_, np.sqrt)
         return np.maximum(cap, creep, out=cap)
 
@@ -285,7 +285,7 @@ class DiffDriveController:
             v0, q0: (m,) v and q commanded in the last period, m/s.
             turn_first: slow a fast turn first (above).
             orca: indices of the robots whose command collision avoidance set
-                (``sim.control.orca``): no turn first for them, their wheels follow the velocity
+                (``sim.spatial.law.orca``): no turn first for them, their wheels follow the velocity
                 ORCA chose.
 
         Returns:

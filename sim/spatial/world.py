@@ -1,36 +1,37 @@
 """The spatial world: differential-drive robots in a pymunk arena (SPEC §6).
 
 One ``pymunk.Space`` (no gravity, SI units, fixed step ``dt_s``, collision slop in metres) holds
-the arena walls, the static obstacles and the robots, which ``sim.motors.Motors`` drives with motor
-joints (never by writing body velocities, which would discard the contact solution).
+the arena walls, the static obstacles and the robots, which ``sim.spatial.motors.Motors`` drives
+with motor joints (never by writing body velocities, which would discard the contact solution).
 
 What runs at which rate:
 
 - every physics step (``dt_s``, 60 Hz in the bundled scenarios): chipmunk's step and nothing
   else while no contact touches (with one solver iteration, exact then); while one does, ten
-  iterations and one batched read of the contact depths (``sim.contacts``: that is how
+  iterations and one batched read of the contact depths (``sim.spatial.contacts``: that is how
   ``contacts_max_overlap_m`` is the worst penetration of any step).
 - every control period (``1 / control_hz``): one batched read of all poses; odometry; for every
-  robot that drives or yields, path following and steering (``sim.navigation.paths``); progress; the
-  wheel limits and one batched write of every motor command; the trajectory recorder. Checks that
-  cannot fire yet are skipped until the earliest time they could: the proximity caps between
-  robots, keep-right and make-way until two robots could be within ``DiffDriveController.look_m``
-  of each other (beyond, no cap binds); the arrival check until a driving robot could be in its
-  arrival zone; the stuck check until the stalest robot could be stuck. The distance to the
-  nearest obstacle (and the speed cap toward it) is measured only for robots beyond the free
-  width of their path, or that could be before they stop (``PathFollower.drifting``), or backing
-  off without one. While no robot drives, yields or backs off and every wheel has stopped, a
-  period does only the recorder (with the poses it has) and the task clock.
+  robot that drives or yields, path following and steering (``sim.spatial.navigation.paths``);
+  progress; the wheel limits and one batched write of every motor command; the trajectory recorder.
+  Checks that cannot fire yet are skipped until the earliest time they could: the proximity caps
+  between robots, keep-right and make-way until two robots could be within
+  ``DiffDriveController.look_m`` of each other (beyond, no cap binds); the arrival check until a
+  driving robot could be in its arrival zone; the stuck check until the stalest robot could be
+  stuck. The distance to the nearest obstacle (and the speed cap toward it) is measured only for
+  robots beyond the free width of their path, or that could be before they stop
+  (``PathFollower.drifting``), or backing off without one. While no robot drives, yields or backs
+  off and every wheel has stopped, a period does only the recorder (with the poses it has) and the
+  task clock.
 - on events only (allocation, arrival, end of work, deadline, stuck, yield request, waypoint
   reached): per-robot Python, planning, and the refresh of the schedule of checks.
 
-Who does what: the world builds the space and owns the fleet state (``sim.fleet``: per-robot
+Who does what: the world builds the space and owns the fleet state (``sim.spatial.fleet``: per-robot
 arrays, the schedule of checks, the clock), which it hands to its collaborators: the task
-bookkeeping (``sim.jobs.Jobs``, with the sites' slots and queues, ``sim.sites``, and the jam
-rules, ``sim.jams``), the control period (``sim.control``), the motors
-(``sim.motors.Motors``) and the contact monitor. The control period exists twice with the same
-formulas, chosen by the ``control`` argument: over numpy arrays (``ArrayControl``), and robot by
-robot in plain Python (``ScalarControl``), where numpy's per-call overhead would dominate; by
+bookkeeping (``sim.spatial.jobs.Jobs``, with the sites' slots and queues, ``sim.spatial.sites``, and
+the jam rules, ``sim.spatial.jams``), the control period (``sim.spatial.control``), the motors
+(``sim.spatial.motors.Motors``) and the contact monitor. The control period exists twice with the
+same formulas, chosen by the ``control`` argument: over numpy arrays (``ArrayControl``), and robot
+by robot in plain Python (``ScalarControl``), where numpy's per-call overhead would dominate; by
 default the scalar one for teams of up to ``SMALL_TEAM`` robots. The tests run both from copies
 of the same state and check that they command the same wheels.
 
@@ -56,18 +57,18 @@ import numpy as np
 import pymunk
 import pymunk.batch as pb
 
-from sim.contacts import ContactMonitor
-from sim.control import CONTROLS, ControlParts, control_kind
-from sim.drive import DiffDriveController
 from sim.faults import build_faults, fault_seed_sequence
-from sim.fleet import Clock, FleetState, Schedule
-from sim.jobs import Jobs
-from sim.motors import Motors
-from sim.navigation.paths import PathFollower
-from sim.navigation.planning import GridPlanner
-from sim.recording import WORKING, shown_states
 from sim.scenario import Scenario
-from sim.stalls import StallMeter
+from sim.spatial.contacts import ContactMonitor
+from sim.spatial.control import CONTROLS, ControlParts, control_kind
+from sim.spatial.controller import DiffDriveController
+from sim.spatial.fleet import Clock, FleetState, Schedule
+from sim.spatial.jobs import Jobs
+from sim.spatial.motors import Motors
+from sim.spatial.navigation.paths import PathFollower
+from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.stalls import StallMeter
+from sim.states import WORKING, shown_states
 from sim.tasks import Batch
 from sim.world import Abandon, Completion, WorldState
 
@@ -88,14 +89,14 @@ class PymunkWorld:
         scenario: a scenario with a ``spatial`` table.
         recorder: optional ``sim.recording.TrajectoryRecorder`` fed robot poses while running.
         control: the control period: ``"array"``, ``"scalar"`` or ``"auto"`` (scalar for teams
-            of up to ``sim.control.SMALL_TEAM`` robots, else array).
+            of up to ``sim.spatial.control.SMALL_TEAM`` robots, else array).
 
     Attributes:
         planner: the :class:`GridPlanner` the distance and time cost models bid with.
         control_kind: the control period in use, ``"array"`` or ``"scalar"``.
-        fleet: the per-robot state (:class:`sim.fleet.FleetState`), rebuilt by :meth:`reset`.
-        schedule, clock: the schedule of checks and the physics-step clock, rebuilt likewise.
-        jobs, control, motors, contacts, follower: the collaborators :meth:`reset` builds.
+        fleet: the per-robot state (:class:`sim.spatial.fleet.FleetState`), rebuilt by
+        :meth:`reset`. schedule, clock: the schedule of checks and the physics-step clock, rebuilt
+        likewise. jobs, control, motors, contacts, follower: the collaborators :meth:`reset` builds.
         contacts_max_overlap_m: deepest robot-robot or robot-wall penetration at the end of any
             physics step (measured after every step in which a contact touches).
         collisions_robot_, collisions_wall_: contacts begun between robots, robot and wall.
@@ -423,9 +424,9 @@ class PymunkWorld:
 
     def summary(self, record=None) -> dict:
         """JSON-able physics statistics of the run so far: contacts begun robot-robot and
-        robot-wall, each a touch (closing speed below ``sim.contacts.IMPACT_MPS``) or an impact,
-        also per robot-hour (robots x simulated hours); where driving robots stood still and
-        why (``sim.stalls``)."""
+        robot-wall, each a touch (closing speed below ``sim.spatial.contacts.IMPACT_MPS``) or an
+        impact, also per robot-hour (robots x simulated hours); where driving robots stood still and
+        why (``sim.spatial.stalls``)."""
         c = self.contacts
         hours = max(self.scenario.n_robots * self.time_s / 3600.0, 1e-12)
         kinds = {

@@ -2,10 +2,10 @@
 
 A control period reads the robots' poses, advances their tasks, steers them, caps their speeds
 near robots and obstacles, limits the wheels and writes the motor commands. It exists twice with
-the same formulas (``sim.drive_law``): over numpy arrays (``sim.control.array``), and robot by
-robot in plain Python (``sim.control.scalar``), which is quicker for a small team because
-numpy's per-call overhead dominates there. Both command the same wheels up to rounding, and each
-is bit-for-bit reproducible on its own.
+the same formulas (``sim.spatial.law.drive``): over numpy arrays (``sim.spatial.control.array``),
+and robot by robot in plain Python (``sim.spatial.control.scalar``), which is quicker for a small
+team because numpy's per-call overhead dominates there. Both command the same wheels up to rounding,
+and each is bit-for-bit reproducible on its own.
 """
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
-from sim.drive import DiffDriveController
-from sim.fleet import FleetState, Schedule
-from sim.jobs import Jobs
-from sim.motors import Motors
-from sim.navigation.paths import PathFollower
+from sim.spatial.controller import DiffDriveController
+from sim.spatial.fleet import FleetState, Schedule
+from sim.spatial.jobs import Jobs
+from sim.spatial.motors import Motors
+from sim.spatial.navigation.paths import PathFollower
 
 
 @dataclass(frozen=True, slots=True)
@@ -33,7 +33,7 @@ class ControlParts:
         controller: the drive limits and the law over arrays.
         arrive_tol_m: a robot this close to its site has arrived, m.
         reach_m: robot centres closer than this are touching, m.
-        avoid: steer with ORCA (``sim.control.orca``) and without keep-right (``[spatial]
+        avoid: steer with ORCA (``sim.spatial.law.orca``) and without keep-right (``[spatial]
             avoidance = "orca"``); False: today's proximity law alone.
     """
 
@@ -52,7 +52,7 @@ class Control(Protocol):
     """One control period of the pymunk world's fleet, built from :class:`ControlParts`.
 
     Attributes:
-        name: the name it is chosen by (a key of ``sim.control.CONTROLS``).
+        name: the name it is chosen by (a key of ``sim.spatial.control.CONTROLS``).
         free_cap_m: the path follower may compute a side step's free widths only this far, and
             exactly once a robot gets farther (inf: exact from the start).
         keeps_lists: ``Jobs`` must keep the state and the steering robots as Python lists.

@@ -12,10 +12,10 @@ the planned distance *is* the straight line, around obstacles it is never shorte
 grid at ``grid_res_m`` is kept for rendering and debugging only.
 
 A fleet bids on the scenario's task sites every round: from ``FIELD_MIN_ROBOTS`` robots on,
-``distances`` looks those sites up in a distance field (``sim.navigation.distfield``: per cell and
-site the vertex, or the site itself, that the query above would find), built once on first use and
-shared by the planners of one process. Smaller calls, and points that are not task sites, take
-the query above, so small scenarios never build a field and keep their results bit for bit.
+``distances`` looks those sites up in a distance field (``sim.spatial.navigation.distfield``: per
+cell and site the vertex, or the site itself, that the query above would find), built once on first
+use and shared by the planners of one process. Smaller calls, and points that are not task sites,
+take the query above, so small scenarios never build a field and keep their results bit for bit.
 """
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import shortest_path
 
-from sim.navigation.buckets import BoxBuckets, typical_size
-from sim.navigation.distfield import SHARED, DistanceField
 from sim.scenario import SpatialSpec
+from sim.spatial.navigation.buckets import BoxBuckets, typical_size
+from sim.spatial.navigation.distfield import SHARED, DistanceField
 
 _TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
 _SNAP_M = 1e-6  # how far past a boundary a point pushed out of an obstacle lands
@@ -454,7 +454,7 @@ class GridPlanner:
     def field(self) -> DistanceField:
         """The distance field of this arena (current obstacles) and the scenario's task sites:
         built on first use, shared with every planner of this process that has the same arena
-        (``sim.navigation.distfield.SHARED``)."""
+        (``sim.spatial.navigation.distfield.SHARED``)."""
         if self.field_ is None:
             sites = self.site_points()
             self.field_ = SHARED.get(self.field_key(), lambda: DistanceField.build(self, sites))

@@ -1,13 +1,13 @@
 """The drive law's constants and formulas, once: pure functions of floats or of numpy arrays.
 
-Both control periods use them: :class:`sim.control.ScalarControl` robot by robot with Python
-floats and complex numbers, and :class:`sim.control.ArrayControl` over the robot axis through
-:class:`sim.drive.DiffDriveController` and :class:`sim.motors.Motors`. Each function is written
-with arithmetic operators and ``abs`` only, so the same expression runs on a float and
-elementwise on an array with the same IEEE operations in the same order. ``abs`` is Python's on
-a Python number and numpy's on an array (the two differ in the last bit for complex numbers), and
-a function with no operator (``sqrt``, ``cos``) is passed in by the caller, so each control
-period keeps its exact arithmetic and its runs stay bit-for-bit reproducible.
+Both control periods use them: :class:`sim.spatial.control.ScalarControl` robot by robot with Python
+floats and complex numbers, and :class:`sim.spatial.control.ArrayControl` over the robot axis
+through :class:`sim.spatial.controller.DiffDriveController` and :class:`sim.spatial.motors.Motors`.
+Each function is written with arithmetic operators and ``abs`` only, so the same expression runs on
+a float and elementwise on an array with the same IEEE operations in the same order. ``abs`` is
+Python's on a Python number and numpy's on an array (the two differ in the last bit for complex
+numbers), and a function with no operator (``sqrt``, ``cos``) is passed in by the caller, so each
+control period keeps its exact arithmetic and its runs stay bit-for-bit reproducible.
 
 Clipping a result to a range is left to the caller, as each docstring says: a conditional
 expression per robot in the scalar period (a function call per clip would cost it more than

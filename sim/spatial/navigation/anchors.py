@@ -5,7 +5,8 @@ or the site itself (F = 0); the planner's distance from p is the least |p - a| +
 anchors a that p sees. A block of cells starts with every anchor and passes to its four
 sub-blocks only those that may win somewhere in it; an anchor is dropped when
 
-- the block does not see it at all (``sim.navigation.raster`` shadows; the certainty margin keeps
+- the block does not see it at all (``sim.spatial.navigation.raster`` shadows; the certainty margin
+keeps
   this exact),
 - the block lies outside its *taut wedge*: a shortest path that bends at a vertex a toward the
   next vertex n wraps a's obstacle, so p - a lies between the far edge of the obstacle at a and
@@ -24,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.navigation.raster import FULL, PART, Grid
+from sim.spatial.navigation.raster import FULL, PART, Grid
 
 WEDGE_SLACK_RAD = 1e-4  # taut wedges are widened by this angle, and by MARGIN_M
 MARGIN_M = 1e-6
@@ -39,7 +40,8 @@ def refine(
     Args:
         grid: the cells; blocks of ``2**top`` x ``2**top`` cells are the coarsest.
         top: number of halvings from the coarsest blocks to the cells.
-        pyramid: per level (cells first) the visibility class (``sim.navigation.raster``) of every
+        pyramid: per level (cells first) the visibility class (``sim.spatial.navigation.raster``) of
+        every
             point (V vertices, then every site's goal) from every block, (P, blocks).
         kind, normals: the sites' taut wedges (:func:`taut_wedges`), (S', V).
         zv: (V,) the vertices (x + iy).

@@ -6,8 +6,8 @@ obstacle corners), their headings turning toward the path at a bounded rate, and
 through one another. Each works at its task for a type-dependent time and stays where it
 finished. From t = 1 s, every 10 s while tasks remain, a round of U{3..7} tasks is announced; each
 is given at once to the nearest free capable robot (high priority first) or lost. The result goes
-through the same ``TrajectoryRecorder`` as a real run of ``sim.physics.PymunkWorld``, so it has
-every field the renderer reads.
+through the same ``TrajectoryRecorder`` as a real run of ``sim.spatial.world.PymunkWorld``, so it
+has every field the renderer reads.
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ import heapq
 
 import numpy as np
 
-from sim.recording import DRIVING, IDLE, WORKING, Trajectory, TrajectoryRecorder
+from sim.recording import Trajectory, TrajectoryRecorder
+from sim.states import DRIVING, IDLE, WORKING
 
 ARENA_WH = (20.0, 20.0)  # m
 OBSTACLES = (

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.navigation.planning import GridPlanner
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.spatial.navigation.planning import GridPlanner
 
 
 def bench_scenario(

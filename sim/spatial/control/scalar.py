@@ -4,11 +4,11 @@ For a handful of robots the cost of a numpy control period is the per-call overh
 hundred small array operations, not the arithmetic: the same law written per robot with Python
 floats and complex numbers is several times faster, and it skips what a robot does not need
 (one standing still costs a comparison). :class:`ScalarControl` is that scalar twin of
-:class:`sim.control.array.ArrayControl`: the same formulas (``sim.drive_law``, called robot by
-robot), the same order, the same event handlers (``sim.jobs.Jobs``); rare work (waypoint
-switches, arrivals, stuck checks, make-way) calls the array code. ``tests/sim/test_control.py``
-runs both from copies of the same state and checks that they command the same wheels;
-``tests/sim/test_physics.py`` runs the behaviour tests through both.
+:class:`sim.spatial.control.array.ArrayControl`: the same formulas (``sim.spatial.law.drive``,
+called robot by robot), the same order, the same event handlers (``sim.spatial.jobs.Jobs``); rare
+work (waypoint switches, arrivals, stuck checks, make-way) calls the array code.
+``tests/sim/test_control.py`` runs both from copies of the same state and checks that they command
+the same wheels; ``tests/sim/test_physics.py`` runs the behaviour tests through both.
 
 It also skips what cannot change: it looks only at pairs with a steering robot (a standing robot
 has no speed to cap) and sleeps the proximity check until a steering robot could come within
@@ -24,9 +24,11 @@ from math import atan2, cos, sqrt
 
 import numpy as np
 
-from sim.control.avoidance import steer_clear, wall_clear
-from sim.control.protocol import ControlParts
-from sim.drive_law import (
+from sim.spatial.control.avoidance import steer_clear, wall_clear
+from sim.spatial.control.protocol import ControlParts
+from sim.spatial.fleet import PROGRESS_M
+from sim.spatial.jobs import RECOVERED_M, YIELD_TRIGGER_M
+from sim.spatial.law.drive import (
     COS_AHEAD,
     HEADING_GAIN,
     KEEP_RIGHT_GAIN,
@@ -44,10 +46,8 @@ from sim.drive_law import (
     stopping_time_s,
     twist_from_rims,
 )
-from sim.fleet import PROGRESS_M
-from sim.jobs import RECOVERED_M, YIELD_TRIGGER_M
-from sim.navigation.paths import LOOKAHEAD_M
-from sim.recording import DRIVING, IDLE
+from sim.spatial.navigation.paths import LOOKAHEAD_M
+from sim.states import DRIVING, IDLE
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -154,7 +154,7 @@ class ScalarControl:
         for j in backing:
             v[j], w[j] = f.backoff_cmd[j].tolist()
         jobs.end_due(t)
-        # ---- other robots: ORCA (sim.control.orca), proximity caps (controller.proximity) ----
+        # ---- other robots: ORCA (sim.spatial.law.orca), proximity caps (controller.proximity) ----
         orca = ()  # robots whose command ORCA set: the wheels follow it as it is
         if self.parts.avoid and steered:  # (p was reused for a point above)
             out = steer_clear(self.parts, zn, rob["vel"], hn, np.array(pref), np.array(v), t, True)
@@ -175,7 +175,9 @@ class ScalarControl:
                 side -= (hs[j] * unit_c[j]).imag * (sj * stopping_time_s(sj, react, inv2a))
                 if (side < free0[j] or side > free1[j]) and j not in off:
                     off.append(j)
-        if steered and self.parts.avoid:  # walls as ORCA lines (sim.control.orca.steer_walls); caps
+        if (
+            steered and self.parts.avoid
+        ):  # walls as ORCA lines (sim.spatial.law.orca.steer_walls); caps
             out = wall_clear(self.parts, zn, hn, np.array(v), np.array(pref), orca, t)
             if out is not None:
                 walled = set(out[0].tolist())

@@ -1,14 +1,14 @@
-"""ORCA in a control period: the same call from both implementations (``sim.control.orca``;
-``sim.control.orca_small`` for the scalar period)."""
+"""ORCA in a control period: the same call from both implementations (``sim.spatial.law.orca``;
+``sim.spatial.control.orca_small`` for the scalar period)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from sim.control import orca as law  # read at call time: one set of knobs for both periods
-from sim.control.orca_small import avoid_small
-from sim.control.protocol import ControlParts
-from sim.recording import DRIVING
+from sim.spatial.control.orca_small import avoid_small
+from sim.spatial.control.protocol import ControlParts
+from sim.spatial.law import orca as law  # read at call time: one set of knobs for both periods
+from sim.states import DRIVING
 
 
 def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: bool = False):
@@ -18,10 +18,10 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
     Args:
         parts: the world's state and collaborators.
         z, vel, h: (m,) positions, body velocities (x + iy) and unit headings.
-        pref: (m,) preferred velocities (``sim.drive_law.preferred_velocity``), m/s.
+        pref: (m,) preferred velocities (``sim.spatial.law.drive.preferred_velocity``), m/s.
         v_want: (m,) forward speeds the path following asks for, m/s.
         t: now, s.
-        small: look at each robot in Python first (``sim.control.orca_small.avoid_small``,
+        small: look at each robot in Python first (``sim.spatial.control.orca_small.avoid_small``,
             for the scalar control period of a small team); the same commands.
 
     Returns:
@@ -40,7 +40,7 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
 
 
 def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
-    """Walls as ORCA lines (``sim.control.orca.steer_walls``) for the robots that steer
+    """Walls as ORCA lines (``sim.spatial.law.orca.steer_walls``) for the robots that steer
     themselves now and whose command robot-robot ORCA did not set (``orca``: its program had
     the obstacle lines already).
 

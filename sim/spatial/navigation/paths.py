@@ -28,7 +28,7 @@ from itertools import pairwise
 
 import numpy as np
 
-from sim.navigation.buckets import EDGE_CELLS_MIN_EDGES, BoxBuckets, EdgeCells, typical_size
+from sim.spatial.navigation.buckets import EDGE_CELLS_MIN_EDGES, BoxBuckets, EdgeCells, typical_size
 
 WAYPOINT_SWITCH_M = 0.2  # aim at the next waypoint once this close to the current one
 LOOKAHEAD_M = 1.5  # a robot pushed off its path steers for the path this far ahead
@@ -352,7 +352,7 @@ class PathFollower:
 
         With many edges and points (more than ``CELLS_FROM`` pairs), points inside the edges'
         bounding box look only at the edges their grid cell lists
-        (``sim.navigation.buckets.EdgeCells``): the same result, bit for bit."""
+        (``sim.spatial.navigation.buckets.EdgeCells``): the same result, bit for bit."""
         if not self.n_owner_ or not len(z):
             return np.full(len(z), np.inf + 0j)
         cells = self.cells_
@@ -413,7 +413,7 @@ class PathFollower:
 
     def _near_cap(self, a: complex, b: complex) -> list[int]:
         """Obstacles (indices) whose bounding box is within ``cap_m`` + radius of the
-        segment's (a superset, :class:`sim.navigation.buckets.BoxBuckets`)."""
+        segment's (a superset, :class:`sim.spatial.navigation.buckets.BoxBuckets`)."""
         d = self.cap_m + self.radius_m
         x0, x1 = (a.real, b.real) if a.real < b.real else (b.real, a.real)
         y0, y1 = (a.imag, b.imag) if a.imag < b.imag else (b.imag, a.imag)

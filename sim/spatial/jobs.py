@@ -1,12 +1,12 @@
 """Task bookkeeping of the pymunk world: assign, start work, finish, stuck, recover, make way.
 
 :class:`Jobs` owns the life of each robot's task, from the auction's assignment to the reported
-:class:`~sim.world.Completion`, over the fleet state it is handed (``sim.fleet``). A control
-period (``sim.control``) steers the robots and calls it on events only (arrival, end of work,
-deadline, stuck, yield request, replanning); after each event :meth:`Jobs.refresh` brings the
+:class:`~sim.world.Completion`, over the fleet state it is handed (``sim.spatial.fleet``). A control
+period (``sim.spatial.control``) steers the robots and calls it on events only (arrival, end of
+work, deadline, stuck, yield request, replanning); after each event :meth:`Jobs.refresh` brings the
 schedule of checks up to date. With collision avoidance on it also keeps the sites' service
-slots and queues (``sim.sites``, ``Jobs.sites``) and the rules for jams between driving robots
-(``sim.jams``, ``Jobs.jams``).
+slots and queues (``sim.spatial.sites``, ``Jobs.sites``) and the rules for jams between driving
+robots (``sim.spatial.jams``, ``Jobs.jams``).
 """
 
 from __future__ import annotations
@@ -15,15 +15,15 @@ import functools
 
 import numpy as np
 
-from sim.drive import DiffDriveController
-from sim.fleet import Clock, FleetState, Schedule, refresh_schedule
-from sim.jams import LANE_GAP_M, Jams
-from sim.navigation.paths import PathFollower
-from sim.navigation.planning import GridPlanner
-from sim.recording import DRIVING, IDLE, WORKING
 from sim.scenario import SpatialSpec
-from sim.sites import YIELD_STEP_M, YIELD_TIMEOUT_S, Sites
-from sim.stalls import NEAR_M, STILL_MPS
+from sim.spatial.controller import DiffDriveController
+from sim.spatial.fleet import Clock, FleetState, Schedule, refresh_schedule
+from sim.spatial.jams import LANE_GAP_M, Jams
+from sim.spatial.navigation.paths import PathFollower
+from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.sites import YIELD_STEP_M, YIELD_TIMEOUT_S, Sites
+from sim.spatial.stalls import NEAR_M, STILL_MPS
+from sim.states import DRIVING, IDLE, WORKING
 from sim.tasks import Batch
 from sim.world import Abandon, Completion
 
@@ -35,7 +35,7 @@ REPAIR_WAIT_S = 300.0  # a robot whose only ways are blocked by broken robots wa
 
 
 class Jobs:
-    """The tasks of a fleet of robots, kept in its :class:`~sim.fleet.FleetState`.
+    """The tasks of a fleet of robots, kept in its :class:`~sim.spatial.fleet.FleetState`.
 
     Args:
         fleet: per-robot state, read and written in place.
@@ -54,21 +54,21 @@ class Jobs:
         clear_sites: under collision avoidance robots never push: a robot that finished and
             stands on the service point another robot comes for steps ``YIELD_STEP_M`` clear
             of it, one at work there sends the newcomer to a service slot
-            (:meth:`sim.sites.Sites.take_slots`), and a robot whose site is taken by a robot at
-            work waits for that work to end instead of recovering. Sites also keep a queue
-            (:meth:`sim.sites.Sites.queue`): within ``QUEUE_M`` of a site whose every place
+            (:meth:`sim.spatial.sites.Sites.take_slots`), and a robot whose site is taken by a robot
+            at work waits for that work to end instead of recovering. Sites also keep a queue
+            (:meth:`sim.spatial.sites.Sites.queue`): within ``QUEUE_M`` of a site whose every place
             (service point and free slots) is taken, a robot holds where it is, first come
             first served, and one that finished there drives out past the crowd
-            (:meth:`sim.sites.Sites.leave`). A stuck robot goes round the robots near it or
-            gives way (:meth:`sim.jams.Jams.go_round`, :meth:`~sim.jams.Jams.give_way`)
-            before it backs off on a random arc.
+            (:meth:`sim.spatial.sites.Sites.leave`). A stuck robot goes round the robots near it or
+            gives way (:meth:`sim.spatial.jams.Jams.go_round`,
+            :meth:`~sim.spatial.jams.Jams.give_way`) before it backs off on a random arc.
 
     Attributes:
         done: completions not yet handed out by the world.
         failures: tasks that failed since reset.
         broken: (m,) robots broken down, written in place by the world (``sim.faults``).
-        sites: the sites' service slots and queues (:class:`sim.sites.Sites`).
-        jams: the rules for jams between driving robots (:class:`sim.jams.Jams`).
+        sites: the sites' service slots and queues (:class:`sim.spatial.sites.Sites`).
+        jams: the rules for jams between driving robots (:class:`sim.spatial.jams.Jams`).
     """
 
     def __init__(
@@ -250,7 +250,7 @@ class Jobs:
 
     def refresh(self) -> None:
         """Refresh the schedule's next-event times and counts after a task event
-        (:func:`sim.fleet.refresh_schedule`)."""
+        (:func:`sim.spatial.fleet.refresh_schedule`)."""
         refresh_schedule(self.fleet, self.schedule, self.clock, self.keep_lists)
 
     def start_work(self, arrived: list[int], v, w, t: float) -> None:
@@ -351,8 +351,8 @@ class Jobs:
     def recover(self, j: int, t: float) -> None:
         """Robot j is stuck: wait for a robot at work that boxes it in; with collision avoidance
         on, have an idle robot beside it step aside (:meth:`ask_idle`), go round or give way
-        (``sim.jams``); go round a standing one, or back off on a random arc and replan; after
-        ``max_recoveries`` tries, fail."""
+        (``sim.spatial.jams``); go round a standing one, or back off on a random arc and replan;
+        after ``max_recoveries`` tries, fail."""
         sp, f = self.spatial, self.fleet
         b, z = int(f.blocker[j]), f.last_z_m
         blocked = b >= 0 and f.near_m[j] < self.reach_m + YIELD_TRIGGER_M

@@ -1,9 +1,10 @@
 """The control period over numpy arrays: every robot in each array operation.
 
 For larger teams the cost of a control period is the arithmetic, and numpy does it over the
-robot axis (``sim.drive.DiffDriveController`` holds the vectorised law, ``sim.navigation.paths`` the
-path following). Checks that cannot fire yet are skipped until the earliest time they could (the
-schedule in ``sim.fleet``); per-robot Python runs on task events only (``sim.jobs``).
+robot axis (``sim.spatial.controller.DiffDriveController`` holds the vectorised law,
+``sim.spatial.navigation.paths`` the path following). Checks that cannot fire yet are skipped until
+the earliest time they could (the schedule in ``sim.spatial.fleet``); per-robot Python runs on task
+events only (``sim.spatial.jobs``).
 """
 
 from __future__ import annotations
@@ -12,12 +13,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.control.avoidance import steer_clear, wall_clear
-from sim.control.protocol import ControlParts
-from sim.drive_law import SPEED_BOUND, next_check_s, preferred_velocity
-from sim.fleet import PROGRESS_M
-from sim.jobs import RECOVERED_M, YIELD_TRIGGER_M
-from sim.recording import DRIVING, IDLE
+from sim.spatial.control.avoidance import steer_clear, wall_clear
+from sim.spatial.control.protocol import ControlParts
+from sim.spatial.fleet import PROGRESS_M
+from sim.spatial.jobs import RECOVERED_M, YIELD_TRIGGER_M
+from sim.spatial.law.drive import SPEED_BOUND, next_check_s, preferred_velocity
+from sim.states import DRIVING, IDLE
 
 FREE_CAP_M = 2.0  # free widths of side steps as far as this (the step is 1 m), then on demand
 

@@ -18,8 +18,8 @@ import pymunk
 import pymunk.batch as pb
 from pymunk._chipmunk_cffi import ffi, lib
 
-from sim.drive_law import control_body, on_arc
 from sim.scenario import DriveSpec
+from sim.spatial.law.drive import control_body, on_arc
 
 _IO = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
 _IO |= pb.BodyFields.ANGULAR_VELOCITY  # 6 floats per body: x, y, angle, vx, vy, omega

@@ -25,9 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.physics import PymunkWorld
-from sim.recording import DRIVING, WORKING, TrajectoryRecorder
+from sim.recording import TrajectoryRecorder
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.spatial.world import PymunkWorld
+from sim.states import DRIVING, WORKING
 from sim.tasks import Batch
 
 ONE_MPS = DriveSpec(max_wheel_speed_radps=12.5)  # 0.08 m wheels: 1 m/s top speed, radius 0.25 m

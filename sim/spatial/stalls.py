@@ -34,7 +34,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.recording import DRIVING, WORKING
+from sim.states import DRIVING, WORKING
 
 STILL_MPS = 0.1  # a driving robot commanded slower than this stands still, m/s
 NEAR_M = 1.2  # the nearest robot counts within this (centre distance), m
@@ -43,7 +43,8 @@ SMALL_MAX = 32  # up to this many robots a period is counted in plain Python (nu
 TREE_K = 9  # a large team: the robots looked at for the nearest (on a square grid 4 tie)
 MAP_CELL_M = 0.5  # side of a cell of the map of where robots stand, m ...
 MAP_MAX_CELLS = 128  # ... or coarser, so that the arena's longer side has at most this many
-LONG_S = 2.0  # standing beyond this much of a stand counts as long (the jam rules' sim.jams.PASS_S)
+# standing beyond this much of a stand counts as long (the jam rules' sim.spatial.jams.PASS_S)
+LONG_S = 2.0
 CAUSES = (
     "queue",
     "robot_at_work",

@@ -3,9 +3,9 @@
 :class:`FleetState` is every per-robot quantity the world keeps between control periods, one
 entry per robot in each array and each documented once, here. :class:`Schedule` holds what the
 control period may skip and when it must look again; :class:`Clock` counts physics steps. The
-world (``sim.physics.PymunkWorld``) makes all three at reset and hands them to its collaborators,
-the task bookkeeping (``sim.jobs.Jobs``) and a control period (``sim.control``), which read and
-write them in place.
+world (``sim.spatial.world.PymunkWorld``) makes all three at reset and hands them to its
+collaborators, the task bookkeeping (``sim.spatial.jobs.Jobs``) and a control period
+(``sim.spatial.control``), which read and write them in place.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.recording import DRIVING, IDLE, WORKING
+from sim.states import DRIVING, IDLE, WORKING
 
 PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
 

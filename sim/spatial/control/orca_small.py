@@ -1,10 +1,10 @@
-"""ORCA for a small team (``sim.control.orca`` for the scalar control period): the same
-commands as :func:`sim.control.orca.avoid`, bit for bit, with most periods never reaching numpy.
+"""ORCA for a small team (``sim.spatial.law.orca`` for the scalar control period): the same
+commands as :func:`sim.spatial.law.orca.avoid`, bit for bit, with most periods never reaching numpy.
 
 For a handful of robots numpy's overhead per call, not arithmetic, is the cost of the law. Its
 first steps (the nearest robots in range, their half-planes, whether the plan leaves one) run
 here in plain Python; the commands of the robots whose plan does come from
-``sim.control.orca``'s numpy code, because numpy's complex arithmetic (fused multiply-add)
+``sim.spatial.law.orca``'s numpy code, because numpy's complex arithmetic (fused multiply-add)
 and Python's differ in the last bits. ``tests/sim/test_orca_fast.py`` holds the parity.
 """
 
@@ -14,11 +14,11 @@ from math import sqrt
 
 import numpy as np
 
-from sim.control import orca  # its constants and functions read at call time: one set of knobs
+from sim.spatial.law import orca  # its constants and functions read at call time: one set of knobs
 
 
 def half_plane_one(rel_p: complex, rel_v: complex, vel_i: complex, share: float, combined_m, tau):
-    """:func:`sim.control.orca.half_planes` of one pair in Python complex numbers; ``tau`` is
+    """:func:`sim.spatial.law.orca.half_planes` of one pair in Python complex numbers; ``tau`` is
     the pair ``(1 / horizon, 1 / control period)``."""
     inv_tau, inv_dt = tau
     r2 = combined_m * combined_m
@@ -62,8 +62,8 @@ def avoid_small(
     to_obstacle,
     lanes=None,
 ):
-    """:func:`sim.control.orca.avoid` for a small team: the same commands bit for bit, most periods
-    without numpy.
+    """:func:`sim.spatial.law.orca.avoid` for a small team: the same commands bit for bit, most
+    periods without numpy.
 
     For a handful of robots :func:`avoid` costs numpy's overhead per call, several hundred
     microseconds, and in most periods no half-plane binds. Here the law's first steps (the

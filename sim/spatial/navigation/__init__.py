@@ -8,6 +8,7 @@ obstacles or edges a small query can touch; ``paths`` follows the planned paths 
 close a robot may come to the obstacles on either side.
 
 The package knows the arena (``sim.scenario``) and nothing else of the world: no robots' state,
-no pymunk. Import the modules themselves (``from sim.navigation.planning import GridPlanner``);
-this ``__init__`` loads nothing, so asking for one never loads scipy's graph routines for another.
+no pymunk. Import the modules themselves (``from sim.spatial.navigation.planning import
+GridPlanner``); this ``__init__`` loads nothing, so asking for one never loads scipy's graph
+routines for another.
 """

@@ -6,9 +6,9 @@ robots in to a free place, first come first served, holds the others in the site
 (drawn as waiting, not stuck), sends a robot that finds the service point taken to a slot, and
 makes a robot that finished (or stands idle) near a site others come to step clear or drive
 out past the crowd; one that finished where nobody comes pulls over in a narrow place.
-:class:`~sim.jobs.Jobs` owns one and calls it on task events; the control period
-(``sim.control``) asks it for slots when a robot near its site finds the service point taken.
-Without collision avoidance robots push and none of this runs.
+:class:`~sim.spatial.jobs.Jobs` owns one and calls it on task events; the control period
+(``sim.spatial.control``) asks it for slots when a robot near its site finds the service point
+taken. Without collision avoidance robots push and none of this runs.
 """
 
 from __future__ import annotations
@@ -17,12 +17,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from sim.drive import DiffDriveController
-from sim.drive_law import SPEED_BOUND, next_check_s
-from sim.fleet import FleetState, Schedule
-from sim.navigation.paths import PathFollower
-from sim.navigation.planning import GridPlanner
-from sim.recording import DRIVING, IDLE, WORKING
+from sim.spatial.controller import DiffDriveController
+from sim.spatial.fleet import FleetState, Schedule
+from sim.spatial.law.drive import SPEED_BOUND, next_check_s
+from sim.spatial.navigation.paths import PathFollower
+from sim.spatial.navigation.planning import GridPlanner
+from sim.states import DRIVING, IDLE, WORKING
 
 SLOTS = 4  # service slots on a ring around each service point (collision avoidance on)
 SLOT_GAP_M = 0.35  # a robot in a slot keeps this much air to the one on the service point, m
@@ -53,7 +53,8 @@ class Sites:
             by the world in place; a broken robot steps nowhere.
         blocked: (m,) driving robots waiting for a repair (every way to their site blocked by
             broken robots), shared with the owner: they are not in a site's queue.
-        refresh: brings the schedule up to date after an event (:meth:`sim.jobs.Jobs.refresh`).
+        refresh: brings the schedule up to date after an event
+        (:meth:`sim.spatial.jobs.Jobs.refresh`).
 
     Attributes (per robot, (m,)):
         service: the service point of its task (x + iy), m; ``fleet.site`` is its place.

@@ -4,12 +4,12 @@ The planner's distance from a point p to a site s is min over the anchors a that
 |p - a| + F_s(a): an anchor is an obstacle vertex (F_s its geodesic distance to s) or the site
 itself (F_s = 0). Which anchor wins depends on where p is, so this module precomputes it: for
 every cell of a grid (about ``CELL_M``) and every site, the anchor that is optimal for *every*
-point of the cell (``sim.navigation.anchors``). A bid is then one table look-up and one straight
-segment. Where no single anchor is certain (the cell straddles a shadow edge or a boundary between
-two anchors' regions: a few per cent of the pairs) the cell keeps a short list of candidates, and a
-query tests those exactly, with the planner's own segment test on the obstacles in the
-segment's direction (``sim.navigation.raster.SightIndex``). Candidates only ever leave for a proof,
-so the table gives the planner's distance up to rounding (the tests compare it with
+point of the cell (``sim.spatial.navigation.anchors``). A bid is then one table look-up and one
+straight segment. Where no single anchor is certain (the cell straddles a shadow edge or a boundary
+between two anchors' regions: a few per cent of the pairs) the cell keeps a short list of
+candidates, and a query tests those exactly, with the planner's own segment test on the obstacles in
+the segment's direction (``sim.spatial.navigation.raster.SightIndex``). Candidates only ever leave
+for a proof, so the table gives the planner's distance up to rounding (the tests compare it with
 ``GridPlanner.exact_distances`` and ``GridPlanner.path`` lengths).
 """
 
@@ -21,8 +21,14 @@ from collections import OrderedDict
 
 import numpy as np
 
-from sim.navigation.anchors import edge_directions, next_points, refine, run_starts, taut_wedges
-from sim.navigation.raster import (
+from sim.spatial.navigation.anchors import (
+    edge_directions,
+    next_points,
+    refine,
+    run_starts,
+    taut_wedges,
+)
+from sim.spatial.navigation.raster import (
     DONT_CARE,
     Grid,
     Obstacles,

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from sim.control.array import ArrayControl
-from sim.control.protocol import Control
-from sim.control.scalar import ScalarControl
+from sim.spatial.control.array import ArrayControl
+from sim.spatial.control.protocol import Control
+from sim.spatial.control.scalar import ScalarControl
 
 SMALL_TEAM = 24  # "auto": up to this many robots a control period runs per robot in Python
 

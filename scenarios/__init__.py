@@ -6,8 +6,8 @@ Rooms, each importing only the ones listed after it (and ``learning``, ``allocat
 - :mod:`scenarios.sweep`: parameter sweeps and studies (many runs, ``runs.csv``, summaries);
 - :mod:`scenarios.experiments`: the run protocol, metrics, manifests, figures, ``reproduce``,
   ``compare``, ``soak``;
-- :mod:`scenarios.loader` and :mod:`scenarios.spatial_schema`: scenario files (``data/``) read
-  and validated into :class:`sim.scenario.Scenario`.
+- :mod:`scenarios.loader`: scenario files (``data/``) read into :class:`sim.scenario.Scenario`
+  (whose specs check every value themselves).
 
 Beside them: :mod:`scenarios.envs` (the Gymnasium and PettingZoo entry points),
 :mod:`scenarios.protocol` (the public path of the protocol) and :mod:`scenarios.bench`

@@ -1,44 +1,49 @@
-"""Load and validate scenario files (TOML) into frozen :class:`sim.scenario.Scenario` values.
+"""Load scenario files (TOML) into frozen :class:`sim.scenario.Scenario` values.
 
-Validation is strict and happens before any work: an unknown key, a wrong type, a count out of
-range, a NaN, a task type no robot can do or an impossible spatial layout raises
-:class:`ScenarioError` whose one-line message names the file, the key path and the problem
-(with a did-you-mean for unknown keys).
+The loader reads the file's shape (tables, lists, key names, task-type names); every value is
+checked by the spec it goes into (``sim.scenario``: type, range, allowed words, the rules between
+keys), the same check a scenario built in Python or changed by an override gets; the spatial
+layout (starts, sites, reachability) by ``sim.spatial.layout.check_layout``. Any problem raises
+:class:`ScenarioError` whose one-line message names the file, the key path and the problem (with
+a did-you-mean for unknown keys), before any work.
 """
 
 from __future__ import annotations
 
-import difflib
 import hashlib
-import math
 import tomllib
-from dataclasses import fields
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from sim.scenario import (
-    FAULT_POLICIES,
-    REFUSAL_RULES,
-    REPAIR_KINDS,
-    DriveSpec,
+    MAX_ROBOTS,
+    MAX_TYPES,
     ExperienceSpec,
     FaultSpec,
     LearningSpec,
     RobotSpec,
     Scenario,
+    SpatialSpec,
     StreamSpec,
 )
+from sim.scenario.schema import (
+    ScenarioError,
+    check_table,
+    did_you_mean,
+    fail,
+    kind_of,
+    tables_of,
+)
+from sim.spatial.layout import check_layout
 
-MAX_ROBOTS = 5000
-MAX_TYPES = 200
-MAX_TASKS = 5_000_000  # sets x rounds x batch_max: beyond this a stream would not fit in memory
-MAX_HISTORY_SPACE = 50_000_000  # largest per-robot Q-table (entries) we agree to allocate
-MAX_HISTORY = 1000  # the state pads a history list to h entries: h itself must stay small
-
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be used; ``str(err)`` is one line: 'file: key.path: problem'."""
+SECTIONS = {
+    "stream": StreamSpec,
+    "learning": LearningSpec,
+    "experience": ExperienceSpec,
+    "faults": FaultSpec,
+}
+TOP_SECTIONS = ("scenario", "robots", *SECTIONS, "spatial")
 
 
 def bundled_toml(folder: str = "") -> list[str]:
@@ -113,318 +118,175 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 
 def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str = "") -> Scenario:
-    """Validate a parsed TOML document and build the Scenario."""
-    v = Validator(source)
-    sections = {"scenario", "robots", "stream", "learning", "experience", "spatial", "faults"}
-    v.keys(doc, "", sections)
-    head = v.table(doc, "scenario", required=True)
-    v.keys(head, "scenario", {"name", "description", "task_types", "exec_time_s"})
-    name = v.string(head, "scenario.name")
-    v.string(head, "scenario.description", optional=True)
-    types = v.str_list(head, "scenario.task_types", min_len=1, max_len=MAX_TYPES)
+    """Validate a parsed TOML document and build the Scenario (layout checked too)."""
+    try:
+        scenario = _build(doc, source, sha256)
+        check_layout(scenario)
+    except ScenarioError as err:
+        raise err.located(source) from None
+    return scenario
+
+
+def _build(doc: dict[str, Any], source: str, sha256: str) -> Scenario:
+    check_table(doc, "", TOP_SECTIONS)
+    head = table(doc, "scenario", required=True)
+    check_table(head, "scenario", ("name", "description", "task_types", "exec_time_s"))
+    name = string(head, "scenario.name")
+    string(head, "scenario.description", optional=True)
+    types = str_list(head, "scenario.task_types")
+    if not 1 <= len(types) <= MAX_TYPES:
+        fail("scenario.task_types", f"needs 1 to {MAX_TYPES} entries, got {len(types)}")
     if len(set(types)) != len(types):
-        v.fail("scenario.task_types", "duplicate task type names")
-    exec_time = v.num_list(head, "scenario.exec_time_s", len(types), lo=0.0, lo_open=False)
-
-    robot_docs = doc.get("robots")
-    if not isinstance(robot_docs, list) or not robot_docs:
-        v.fail("robots", "needs at least one [[robots]] table")
-    if len(robot_docs) > MAX_ROBOTS:
-        v.fail("robots", f"{len(robot_docs)} robots, more than the {MAX_ROBOTS} we support")
-    robots, cost_rows, seen = [], [], set()
-    for j, rd in enumerate(robot_docs):
-        where = f"robots[{j}]"
-        if not isinstance(rd, dict):
-            v.fail(where, "must be a table")
-        v.keys(rd, where, {"name", "capabilities", "cost", "start", "heading_deg"})
-        rname = v.string(rd, f"{where}.name")
-        if rname in seen:
-            v.fail(f"{where}.name", f"duplicate robot name {rname!r}")
-        seen.add(rname)
-        caps = v.str_list(rd, f"{where}.capabilities", min_len=1, max_len=len(types))
-        for c in caps:
-            if c not in types:
-                v.fail(f"{where}.capabilities", f"unknown task type {c!r}{did_you_mean(c, types)}")
-        if len(set(caps)) != len(caps):
-            v.fail(f"{where}.capabilities", "a task type is listed twice")
-        cost = v.table(rd, "cost", required=True, where=f"{where}.cost")
-        row = [math.inf] * len(types)
-        for key in cost:
-            if key not in caps:
-                v.fail(f"{where}.cost.{key}", f"not among this robot's capabilities {caps}")
-            row[types.index(key)] = v.number(cost, key, where=f"{where}.cost.{key}", lo=0.0)
-        for c in caps:
-            if c not in cost:
-                v.fail(f"{where}.cost", f"missing cost for capability {c!r}")
-        start = None
-        if "start" in rd:
-            start = tuple(v.num_list(rd, f"{where}.start", 2))
-        heading = 0.0
-        if "heading_deg" in rd:
-            heading = v.number(rd, "heading_deg", f"{where}.heading_deg", lo=-360.0)
-            v.check(heading <= 360.0, f"{where}.heading_deg", "must be within [-360, 360] degrees")
-        capable = tuple(sorted(types.index(c) for c in caps))
-        robots.append(RobotSpec(rname, capable, start, float(heading)))
-        cost_rows.append(tuple(row))
-    covered = {i for r in robots for i in r.capabilities}
-    for i, t in enumerate(types):
-        if i not in covered:
-            v.fail("scenario.task_types", f"task type {t!r} cannot be done by any robot")
-
-    stream = v.section(doc, "stream", StreamSpec)
-    s = stream
-    v.check(s.batch_min >= 1, "stream.batch_min", "must be at least 1")
-    v.check(s.batch_max >= s.batch_min, "stream.batch_max", "must be >= stream.batch_min")
-    v.check(0.0 <= s.p_high <= 1.0, "stream.p_high", f"probability {s.p_high} outside [0, 1]")
-    v.check(s.n_sets >= 1, "stream.n_sets", "must be at least 1")
-    v.check(s.rounds_per_set >= 1, "stream.rounds_per_set", "must be at least 1")
-    v.check(
-        1 <= s.learn_sets <= s.n_sets, "stream.learn_sets", f"must be in 1..n_sets ({s.n_sets})"
-    )
-    v.check(1 <= s.test_sets <= s.n_sets, "stream.test_sets", f"must be in 1..n_sets ({s.n_sets})")
-    v.check(s.announce_interval_s > 0, "stream.announce_interval_s", "must be > 0")
-    n_tasks = s.n_sets * s.rounds_per_set * s.batch_max
-    v.check(n_tasks <= MAX_TASKS, "stream", f"up to {n_tasks:,} tasks: more than {MAX_TASKS:,}")
-
-    learning = v.section(doc, "learning", LearningSpec)
-    lp = learning
-    v.check(0.0 < lp.alpha <= 1.0, "learning.alpha", "must be in (0, 1]")
-    v.check(0.0 <= lp.gamma < 1.0, "learning.gamma", "must be in [0, 1)")
-    for key in ("epsilon_start", "epsilon_end", "epsilon_decay"):
-        val = getattr(lp, key)
-        v.check(0.0 <= val <= 1.0, f"learning.{key}", f"{val} outside [0, 1]")
-    v.check(lp.history >= 1, "learning.history", "must be at least 1")
-    v.check(lp.history <= MAX_HISTORY, "learning.history", f"must be at most {MAX_HISTORY:,}")
-    widest = max(len(r.capabilities) for r in robots)
-    if lp.history * math.log(widest) > math.log(MAX_HISTORY_SPACE):  # no huge int powers
-        digits = lp.history * math.log10(widest) + math.log10(2)
-        v.fail(
-            "learning.history",
-            f"a robot's Q-table would have about 10^{digits:.0f} entries "
-            f"(limit {MAX_HISTORY_SPACE:,})",
-        )
-    for key in ("reward_high", "reward_low", "penalty_lost_high"):
-        v.check(getattr(lp, key) >= 0, f"learning.{key}", "must be >= 0")
-
-    experience = v.section(doc, "experience", ExperienceSpec)
-    e = experience
-    v.check(0.0 <= e.delta_v <= 1.0, "experience.delta_v", "must be in [0, 1]")
-    v.check(0.0 <= e.delta_u <= 2.0, "experience.delta_u", "must be in [0, 2] (TEM lies in (0, 2))")
-    v.check(e.n_min >= 1, "experience.n_min", "must be at least 1")
-    v.check(e.coverage_k >= 1, "experience.coverage_k", "must be at least 1")
-    if e.refusal not in REFUSAL_RULES:
-        hint = did_you_mean(e.refusal, REFUSAL_RULES)
-        v.fail(
-            "experience.refusal", f"unknown rule {e.refusal!r}{hint}; one of {list(REFUSAL_RULES)}"
-        )
-
-    faults = parse_faults(v, doc, [r.name for r in robots])
-
-    spatial = None
-    if "spatial" in doc:
-        from scenarios.spatial_schema import parse_spatial
-
-        spatial = parse_spatial(v, doc, types, robots)
+        fail("scenario.task_types", "duplicate task type names")
+    if "exec_time_s" not in head:
+        fail("scenario.exec_time_s", "missing")
+    robots, cost_rows = _robots(doc, types)
+    sections = {key: section(doc, key, cls) for key, cls in SECTIONS.items() if key != "faults"}
+    faults = section(doc, "faults", FaultSpec, mttf_by_robot=_mttf_by_robot)
+    spatial = _spatial(doc, types) if "spatial" in doc else None
     return Scenario(
         name=name,
         task_types=tuple(types),
         robots=tuple(robots),
         cost=tuple(cost_rows),
-        exec_time_s=tuple(exec_time),
-        stream=stream,
-        learning=learning,
-        experience=experience,
+        exec_time_s=head["exec_time_s"],
         spatial=spatial,
         faults=faults,
         source=source,
         source_sha256=sha256,
+        **sections,
     )
 
 
-FAULT_KEYS = {"mttf_s", "mttf_by_robot", "repair_s", "repair", "p_permanent", "policy"}
+def _robots(doc: dict, types: list[str]) -> tuple[list[RobotSpec], list[list[Any]]]:
+    robot_docs = doc.get("robots")
+    if not isinstance(robot_docs, list) or not robot_docs:
+        fail("robots", "needs at least one [[robots]] table")
+    if len(robot_docs) > MAX_ROBOTS:
+        fail("robots", f"{len(robot_docs)} robots, more than the {MAX_ROBOTS} we support")
+    robots, cost_rows = [], []
+    for j, rd in enumerate(robot_docs):
+        where = f"robots[{j}]"
+        if not isinstance(rd, dict):
+            fail(where, "must be a table")
+        check_table(rd, where, ("name", "capabilities", "cost", "start", "heading_deg"))
+        rname = string(rd, f"{where}.name")
+        caps = str_list(rd, f"{where}.capabilities")
+        for c in caps:
+            if c not in types:
+                fail(f"{where}.capabilities", f"unknown task type {c!r}{did_you_mean(c, types)}")
+        if not 1 <= len(caps) <= len(types):
+            fail(f"{where}.capabilities", f"needs 1 to {len(types)} entries, got {len(caps)}")
+        if len(set(caps)) != len(caps):
+            fail(f"{where}.capabilities", "a task type is listed twice")
+        cost = table(rd, "cost", required=True, where=f"{where}.cost")
+        row: list[Any] = [float("inf")] * len(types)
+        for key, value in cost.items():
+            if key not in caps:
+                fail(f"{where}.cost.{key}", f"not among this robot's capabilities {caps}")
+            row[types.index(key)] = value
+        for c in caps:
+            if c not in cost:
+                fail(f"{where}.cost", f"missing cost for capability {c!r}")
+        extra = {"heading_deg": rd["heading_deg"]} if "heading_deg" in rd else {}
+        capable = tuple(types.index(c) for c in caps)
+        robots.append(RobotSpec(rname, capable, rd.get("start"), **extra))
+        cost_rows.append(row)
+    return robots, cost_rows
 
 
-def parse_faults(v: Validator, doc: dict, names: list[str]) -> FaultSpec:
-    """The ``[faults]`` table (every key optional; absent or empty: no robot breaks)."""
-    table = v.table(doc, "faults")
-    v.keys(table, "faults", FAULT_KEYS)
-    values: dict[str, Any] = {}
-    if "mttf_s" in table:
-        values["mttf_s"] = _mttf(v, table, "mttf_s", "faults.mttf_s")
-    if "mttf_by_robot" in table:
-        own = v.table(table, "mttf_by_robot", where="faults.mttf_by_robot")
-        pairs = []
-        for name in own:
-            where = f"faults.mttf_by_robot.{name}"
-            if name not in names:
-                v.fail(where, f"no robot named {name!r}{did_you_mean(name, names)}")
-            pairs.append((name, _mttf(v, own, name, where)))
-        values["mttf_by_robot"] = tuple(pairs)
-    if "repair_s" in table:
-        values["repair_s"] = v.number(table, "repair_s", "faults.repair_s", lo=0.0)
-    if "p_permanent" in table:
-        p = v.number(table, "p_permanent", "faults.p_permanent", lo=0.0)
-        v.check(p <= 1.0, "faults.p_permanent", f"probability {p} outside [0, 1]")
-        values["p_permanent"] = p
-    for key, options in (("repair", REPAIR_KINDS), ("policy", FAULT_POLICIES)):
-        if key in table:
-            word = table[key]
-            if not isinstance(word, str):
-                v.fail(f"faults.{key}", f"must be a string, got {_kind(word)}")
-            if word not in options:
-                hint = did_you_mean(word, options)
-                v.fail(f"faults.{key}", f"unknown {key} {word!r}{hint}; one of {list(options)}")
-            values[key] = word
-    return FaultSpec(**values)
+def _mttf_by_robot(value: Any) -> tuple:
+    if not isinstance(value, dict):
+        fail("faults.mttf_by_robot", f"must be a table, got {kind_of(value)}")
+    return tuple(value.items())
 
 
-def _mttf(v: Validator, table: dict, key: str, where: str) -> float:
-    """A mean time to failure: a number > 0, or inf / "inf" (never breaks)."""
-    val = table[key]
-    if val == "inf" or (isinstance(val, float) and val == math.inf):
-        return math.inf
-    return v.number(table, key, where, lo=0.0, lo_open=True)
+def _spatial(doc: dict, types: list[str]) -> SpatialSpec:
+    """The ``[spatial]`` table: its sub-tables built as specs, its sites in task-type order."""
+    raw = table(doc, "spatial")
+    check_table(raw, "spatial", SpatialSpec)
+    for key in ("width_m", "height_m"):
+        if key not in raw:
+            fail(f"spatial.{key}", "missing")
+    values = dict(raw)
+    for f in tables_of(SpatialSpec):
+        values[f.name] = section(raw, f.name, f.default_factory, where=f"spatial.{f.name}")
+    values["sites"] = _sites(raw, types)
+    return SpatialSpec(**values)
 
 
-def did_you_mean(word: str, options) -> str:
-    """' (did you mean 'x'?)' for the closest option, ignoring case; '' if none is close."""
-    lower = {str(o).lower(): o for o in options}
-    close = difflib.get_close_matches(word.lower(), list(lower), n=1, cutoff=0.6)
-    return f" (did you mean {lower[close[0]]!r}?)" if close else ""
+def _sites(raw: dict, types: list[str]) -> tuple:
+    sub = table(raw, "sites", where="spatial.sites")
+    for key in sub:
+        if key not in types:
+            problem = f"unknown key: not one of the scenario's task types ({', '.join(types)})"
+            fail(f"spatial.sites.{key}", f"{problem}{did_you_mean(key, types)}")
+    out = []
+    for name in types:
+        if name not in sub:
+            fail(
+                f"spatial.sites.{name}",
+                "missing: every task type needs a list of site points [[x, y], ...]",
+            )
+        out.append(sub[name])
+    return tuple(out)
 
 
-class Validator:
-    """Small helpers that raise ScenarioError('source: path: problem')."""
-
-    def __init__(self, source: str) -> None:
-        self.source = source
-
-    def fail(self, path: str, problem: str):
-        raise ScenarioError(f"{self.source}: {path or '<top level>'}: {problem}")
-
-    def check(self, ok: bool, path: str, problem: str) -> None:
-        if not ok:
-            self.fail(path, problem)
-
-    def keys(self, table: dict, path: str, allowed: set[str], problem: str = "unknown key") -> None:
-        """Fail on the first key not in ``allowed``: ``problem`` and a did-you-mean."""
-        for key in table:
-            if key not in allowed:
-                where = f"{path}.{key}" if path else key
-                self.fail(where, f"{problem}{did_you_mean(key, sorted(allowed))}")
-
-    def table(self, doc: dict, key: str, required: bool = False, where: str | None = None) -> dict:
-        where = where or key
-        if key not in doc:
-            if required:
-                self.fail(where, "missing")
-            return {}
-        if not isinstance(doc[key], dict):
-            self.fail(where, f"must be a table, got {_kind(doc[key])}")
-        return doc[key]
-
-    def string(self, table: dict, path: str, optional: bool = False) -> str:
-        key = path.rsplit(".", 1)[-1]
-        if key not in table:
-            if optional:
-                return ""
-            self.fail(path, "missing")
-        val = table[key]
-        if not isinstance(val, str) or not val.strip():
-            self.fail(path, f"must be a non-empty string, got {_kind(val)}")
-        return val
-
-    def str_list(self, table: dict, path: str, min_len: int, max_len: int) -> list[str]:
-        key = path.rsplit(".", 1)[-1]
-        if key not in table:
-            self.fail(path, "missing")
-        val = table[key]
-        if not isinstance(val, list) or not all(isinstance(x, str) for x in val):
-            self.fail(path, f"must be a list of strings, got {_kind(val)}")
-        if not min_len <= len(val) <= max_len:
-            self.fail(path, f"needs {min_len} to {max_len} entries, got {len(val)}")
-        return list(val)
-
-    def number(
-        self,
-        table: dict,
-        key: str,
-        where: str,
-        lo: float | None = None,
-        lo_open: bool = False,
-        integer: bool = False,
-    ) -> float:
-        val = table[key]
-        if isinstance(val, bool) or not isinstance(val, int | float):
-            self.fail(where, f"must be a number, got {_kind(val)}")
-        if integer and not isinstance(val, int):
-            self.fail(where, f"must be an integer, got {val!r}")
-        if not math.isfinite(val):
-            self.fail(where, f"must be finite, got {val}")
-        if lo is not None and (val < lo or (lo_open and val == lo)):
-            self.fail(where, f"must be {'>' if lo_open else '>='} {lo:g}, got {val}")
-        return val if integer else float(val)
-
-    def num_list(
-        self, table: dict, path: str, length: int, lo: float | None = None, lo_open: bool = False
-    ) -> list[float]:
-        key = path.rsplit(".", 1)[-1]
-        if key not in table:
-            self.fail(path, "missing")
-        val = table[key]
-        if not isinstance(val, list):
-            self.fail(path, f"must be a list of {length} numbers, got {_kind(val)}")
-        if len(val) != length:
-            self.fail(path, f"must have {length} entries, got {len(val)}")
-        return [self.number(val, i, f"{path}[{i}]", lo=lo, lo_open=lo_open) for i in range(length)]
-
-    def section(self, doc: dict, key: str, cls):
-        """A table whose keys are the fields of a dataclass, each optional with its default."""
-        table = self.table(doc, key)
-        names = {f.name: f for f in fields(cls)}
-        self.keys(table, key, set(names))
-        values = {}
-        for name, val in table.items():
-            default = getattr(cls(), name)
-            where = f"{key}.{name}"
-            if isinstance(default, bool):
-                if not isinstance(val, bool):
-                    self.fail(where, f"must be true or false, got {_kind(val)}")
-                values[name] = val
-            elif isinstance(default, str):
-                if not isinstance(val, str):
-                    self.fail(where, f"must be a string, got {_kind(val)}")
-                values[name] = val
-            elif isinstance(default, int):
-                values[name] = self.number(table, name, where, integer=True)
-            else:
-                values[name] = self.number(table, name, where)
-        return cls(**values)
+def section(doc: dict, key: str, cls: type, where: str | None = None, **convert) -> Any:
+    """A table whose keys are the fields of a spec class, each optional with its default;
+    ``convert`` maps a key to a function that turns its raw value into the field's."""
+    where = where or key
+    sub = table(doc, key, where=where)
+    check_table(sub, where, cls)
+    values = {k: convert[k](v) if k in convert else v for k, v in sub.items()}
+    return cls(**values)
 
 
-def _kind(val: Any) -> str:
-    if isinstance(val, bool):
-        return f"boolean {str(val).lower()}"
-    if isinstance(val, str):
-        return f"string {val!r}"
-    if isinstance(val, int | float):
-        return f"number {val}"
-    if isinstance(val, list):
-        return "a list"
-    if isinstance(val, dict):
-        return "a table"
-    return type(val).__name__
+def table(doc: dict, key: str, required: bool = False, where: str | None = None) -> dict:
+    """``doc[key]`` as a table ({} if absent and not required)."""
+    where = where or key
+    if key not in doc:
+        if required:
+            fail(where, "missing")
+        return {}
+    if not isinstance(doc[key], dict):
+        fail(where, f"must be a table, got {kind_of(doc[key])}")
+    return doc[key]
+
+
+def string(doc: dict, path: str, optional: bool = False) -> str:
+    """A non-empty string at ``path`` (its last part is the key in ``doc``)."""
+    key = path.rsplit(".", 1)[-1]
+    if key not in doc:
+        if optional:
+            return ""
+        fail(path, "missing")
+    val = doc[key]
+    if not isinstance(val, str) or not val.strip():
+        fail(path, f"must be a non-empty string, got {kind_of(val)}")
+    return val
+
+
+def str_list(doc: dict, path: str) -> list[str]:
+    """A list of strings at ``path``."""
+    key = path.rsplit(".", 1)[-1]
+    if key not in doc:
+        fail(path, "missing")
+    val = doc[key]
+    if not isinstance(val, list) or not all(isinstance(x, str) for x in val):
+        fail(path, f"must be a list of strings, got {kind_of(val)}")
+    return list(val)
 
 
 __all__ = [
-    "DriveSpec",
+    "SECTIONS",
     "ScenarioError",
-    "Validator",
     "bundled_names",
     "bundled_toml",
     "did_you_mean",
     "load_scenario",
     "locate",
     "parse_scenario",
+    "read_toml",
     "resolve",
 ]

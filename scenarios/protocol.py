@@ -7,7 +7,6 @@ The protocol lives in :mod:`scenarios.experiments.protocol` (and its file writer
 
 from scenarios.experiments.output import write_csv_atomic, write_json_atomic
 from scenarios.experiments.protocol import (
-    OVERRIDABLE,
     RunSpec,
     UserError,
     apply_overrides,
@@ -21,7 +20,6 @@ from scenarios.experiments.protocol import (
 )
 
 __all__ = [
-    "OVERRIDABLE",
     "RunSpec",
     "UserError",
     "apply_overrides",

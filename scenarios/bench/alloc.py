@@ -59,6 +59,10 @@ def synthetic_scenario(
         row[caps] = rng.integers(cost_range[0], cost_range[1] + 1, size=caps.size)
         robots.append(RobotSpec(f"R{j + 1}", tuple(int(i) for i in caps)))
         costs.append(tuple(float(c) for c in row))
+    for i in sorted(set(range(n_types)) - {c for r in robots for c in r.capabilities}):
+        j = i % n_robots  # a type no robot drew goes to one robot, at the dearest cost
+        robots[j] = RobotSpec(robots[j].name, tuple(sorted((*robots[j].capabilities, i))))
+        costs[j] = tuple(float(cost_range[1]) if k == i else c for k, c in enumerate(costs[j]))
     exec_time = np.round(rng.uniform(*exec_time_s_range, size=n_types))
     return Scenario(
         name=name,

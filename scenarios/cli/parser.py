@@ -6,6 +6,8 @@ import argparse
 import math
 from pathlib import Path
 
+from sim.scenario import AVOIDANCE, LOOK_AHEAD
+
 EXIT_USAGE = 2
 COSTS = ("abstract", "distance", "time")
 SCENARIO = "bundled scenario name (mrta validate --list) or TOML path"
@@ -130,8 +132,8 @@ LOOK_AHEAD_HELP = (
 def _avoidance_option(parser) -> None:
     """``--avoidance orca|none`` and ``--look-ahead off|on``: a spatial run with or without
     collision avoidance, and with or without planning round robots at work."""
-    parser.add_argument("--avoidance", choices=("orca", "none"), default=None, help=AVOIDANCE_HELP)
-    parser.add_argument("--look-ahead", choices=("off", "on"), default=None, help=LOOK_AHEAD_HELP)
+    parser.add_argument("--avoidance", choices=AVOIDANCE, default=None, help=AVOIDANCE_HELP)
+    parser.add_argument("--look-ahead", choices=LOOK_AHEAD, default=None, help=LOOK_AHEAD_HELP)
 
 
 FAULT_WORDS = {

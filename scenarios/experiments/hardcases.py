@@ -45,10 +45,12 @@ def swap_world(
     headings_deg=None,
     drive: DriveSpec = ONE_MPS,
     look_ahead: str = "off",
+    check_layout: bool = True,
 ) -> PymunkWorld:
     """Robots at ``starts`` (m, 2), facing ``headings_deg`` (default +x), each sent at once to
     its own goal (one task type per robot, 1000 s of work: it stays there), in a ``size_m``
-    arena with ``obstacles``, driving as ``drive``, with ``[spatial] look_ahead`` as given."""
+    arena with ``obstacles``, driving as ``drive``, with ``[spatial] look_ahead`` as given
+    (``check_layout``: as :class:`sim.spatial.world.PymunkWorld`)."""
     n = len(starts)
     sp = SpatialSpec(
         size_m[0],
@@ -66,7 +68,7 @@ def swap_world(
     )
     types = tuple(f"T{k}" for k in range(n))
     sc = Scenario("swap", types, robots, ((1.0,) * n,) * n, (1000.0,) * n, spatial=sp)
-    world = PymunkWorld(sc, control=control)
+    world = PymunkWorld(sc, control=control, check_layout=check_layout)
     world.reset(np.random.default_rng(0))
     batch = Batch(0, 0, np.arange(n), np.arange(n), np.zeros(n, bool), np.asarray(goals, float))
     world.apply(batch, np.arange(n), np.ones(n))

@@ -40,15 +40,8 @@ from scenarios.experiments.metrics import (
 from scenarios.loader import load_scenario
 from sim import make_world
 from sim.scenario import Scenario
-from sim.spatial.jams import LOOK_AHEAD
-from sim.spatial.law.orca import AVOIDANCE
+from sim.scenario.overrides import apply_overrides
 from sim.tasks import TaskStream, generate_stream, load_stream
-
-OVERRIDABLE = ("stream", "learning", "experience", "faults")
-SPATIAL_OVERRIDES = {  # spatial keys a run may override: values
-    "spatial.avoidance": AVOIDANCE,
-    "spatial.look_ahead": LOOK_AHEAD,
-}
 
 
 class UserError(ValueError):
@@ -72,32 +65,6 @@ class RunSpec:
 def load_named(name: str) -> Scenario:
     """A scenario by bundled name or path, loaded once per process (runs of a sweep share it)."""
     return load_scenario(name)
-
-
-def apply_overrides(scenario: Scenario, overrides: Sequence[tuple[str, float]]) -> Scenario:
-    """Return the scenario with ``section.key`` values replaced (sweeps, trade-off curves)."""
-    for path, value in overrides:
-        section, _, key = path.partition(".")
-        if path in SPATIAL_OVERRIDES:
-            if scenario.spatial is None:
-                raise UserError(f"override {path!r}: {scenario.name!r} has no [spatial] table")
-            if value not in SPATIAL_OVERRIDES[path]:
-                allowed = ", ".join(SPATIAL_OVERRIDES[path])
-                raise UserError(f"override {path!r}: must be one of {allowed}; got {value!r}")
-            spatial = dataclasses.replace(scenario.spatial, **{key: value})
-            scenario = dataclasses.replace(scenario, spatial=spatial)
-            continue
-        if section not in OVERRIDABLE:
-            raise UserError(f"override {path!r}: section must be one of {', '.join(OVERRIDABLE)}")
-        spec = getattr(scenario, section)
-        if key not in {f.name for f in dataclasses.fields(spec)}:
-            raise UserError(f"override {path!r}: {section} has no key {key!r}")
-        old = getattr(spec, key)
-        value = type(old)(value)
-        scenario = dataclasses.replace(
-            scenario, **{section: dataclasses.replace(spec, **{key: value})}
-        )
-    return scenario
 
 
 def check_cost(scenario: Scenario, cost: str) -> None:

@@ -14,13 +14,13 @@ import hashlib
 import itertools
 import math
 import tomllib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from allocation.costs import COST_MODELS
 from learning.registry import AllocatorError, allocator_class
-from scenarios.experiments.protocol import OVERRIDABLE, SPATIAL_OVERRIDES, RunSpec
+from scenarios.experiments.protocol import RunSpec
 from scenarios.loader import (
     ScenarioError,
     bundled_toml,
@@ -31,22 +31,16 @@ from scenarios.loader import (
     resolve,
 )
 from scenarios.sweep.columns import METRIC_COLUMNS
-from sim.scenario import ExperienceSpec, FaultSpec, LearningSpec, StreamSpec
+from sim.scenario import Scenario
+from sim.scenario.overrides import TOP_TABLES, apply_overrides, setting_paths
+from sim.spatial.layout import check_layout
 
-SECTIONS = {
-    "stream": StreamSpec,
-    "learning": LearningSpec,
-    "experience": ExperienceSpec,
-    "faults": FaultSpec,
+# every setting a sweep may set, by key path, and its default (which gives its type)
+PARAMETERS = {
+    path: cls.__dataclass_fields__[name].default for path, (cls, name, _) in setting_paths().items()
 }
-PARAMETERS = {  # every overridable "section.key" and its default (which gives its type)
-    f"{s}.{f.name}": getattr(cls(), f.name)
-    for s, cls in SECTIONS.items()
-    if s in OVERRIDABLE
-    for f in fields(cls)
-    if isinstance(getattr(cls(), f.name), bool | int | float | str)  # not faults.mttf_by_robot
-} | {path: allowed[0] for path, allowed in SPATIAL_OVERRIDES.items()}
-INFINITE_OK = {"faults.mttf_s"}  # inf: no robot breaks (the reference point of a fault sweep)
+INFINITE_OK = {path for path, (_, _, meta) in setting_paths().items() if meta.inf_ok}
+SECTIONS = (*TOP_TABLES, "spatial")
 TOP_KEYS = {"sweep", "fixed", "grid", "points"}
 SWEEP_KEYS = {"name", "description", "scenarios", "allocators", "costs", "seeds"}
 MAX_RUNS = 100_000
@@ -212,20 +206,24 @@ class _Parser:
         return val if isinstance(default, int) else float(val)
 
     def params(self, table: Any, where: str) -> dict[str, Any]:
-        """Flatten ``{"experience.delta_u": v}`` or ``{"experience": {"delta_u": v}}``."""
+        """Flatten ``{"experience.delta_u": v}``, ``{"experience": {"delta_u": v}}`` or
+        ``{"spatial": {"orca": {"tau_s": v}}}``."""
         if not isinstance(table, dict):
             self.fail(where, "must be a table of parameter = value(s)")
         flat: dict[str, Any] = {}
-        for key, val in table.items():
-            if isinstance(val, dict):
-                for sub, v in val.items():
-                    flat[f"{key}.{sub}"] = v
-            else:
-                flat[key] = val
+
+        def walk(prefix: str, sub: dict) -> None:
+            for key, val in sub.items():
+                if isinstance(val, dict):
+                    walk(f"{prefix}{key}.", val)
+                else:
+                    flat[f"{prefix}{key}"] = val
+
+        walk("", table)
         for key in flat:
             if key not in PARAMETERS:
                 section = key.partition(".")[0]
-                if section not in SECTIONS and section != "spatial":
+                if section not in SECTIONS:
                     hint = did_you_mean(key, list(PARAMETERS))
                     hint = hint or f" (sections: {', '.join(SECTIONS)})"
                 else:
@@ -258,11 +256,11 @@ class _Parser:
         fixed = tuple((p, self.value(f"fixed.{p}", p, v)) for p, v in fixed_raw.items())
         parameters, combos, origin, only = self.combos(doc, fixed_raw, allocators)
         refs = [self.scenario_ref(i, s) for i, s in enumerate(scenarios)]
-        for label, (ref, raw) in zip(scenarios, refs, strict=True):
-            self.check_costs(label, ref, raw, costs)
-            self.check_values(label, raw, fixed, (), (), "fixed")
+        for label, (_, scenario) in zip(scenarios, refs, strict=True):
+            self.check_costs(label, scenario, costs)
+            self.check_values(label, scenario, fixed, (), (), "fixed")
             for combo, where in zip(combos, origin, strict=True):
-                self.check_values(label, raw, fixed, parameters, combo, where)
+                self.check_values(label, scenario, fixed, parameters, combo, where)
         n_runs = (
             len(scenarios)
             * len(costs)
@@ -338,45 +336,41 @@ class _Parser:
                 self.fail(f"fixed.{p}", "is also swept; set it in one place only")
         return parameters, tuple(combos), origin, only
 
-    def scenario_ref(self, i: int, label: str) -> tuple[str, dict]:
-        """(what RunSpec.scenario should hold, the raw scenario document)."""
+    def scenario_ref(self, i: int, label: str) -> tuple[str, Scenario]:
+        """(what RunSpec.scenario should hold, the scenario)."""
         candidate = Path(label)
         if not candidate.is_absolute() and (self.path.parent / candidate).is_file():
             candidate = self.path.parent / candidate
         try:
             path = resolve(candidate if candidate.is_file() else label)
             raw = tomllib.loads(path.read_text())
-            parse_scenario(raw, source=str(path))
+            scenario = parse_scenario(raw, source=str(path))
         except ScenarioError as exc:
             self.fail(f"sweep.scenarios[{i}]", str(exc))
         except (OSError, tomllib.TOMLDecodeError) as exc:
             self.fail(f"sweep.scenarios[{i}]", f"cannot read scenario {label!r}: {exc}")
         ref = str(path.resolve()) if candidate.is_file() else label
-        return ref, raw
+        return ref, scenario
 
-    def check_costs(self, label: str, ref: str, raw: dict, costs: tuple[str, ...]) -> None:
+    def check_costs(self, label: str, scenario: Scenario, costs: tuple[str, ...]) -> None:
         for i, c in enumerate(costs):
-            if c != "abstract" and "spatial" not in raw:
+            if c != "abstract" and scenario.spatial is None:
                 self.fail(
                     f"sweep.costs[{i}]",
                     f"cost model {c!r} needs a spatial scenario; {label!r} has no [spatial] table",
                 )
 
-    def check_values(self, label, raw, fixed, parameters, combo, where) -> None:
-        """Validate one combination exactly as the loader validates a scenario file."""
-        doc = dict(raw)
-        origin = {}
-        for (path, value), table in [(f, "fixed") for f in fixed] + [
-            (pv, where) for pv in zip(parameters, combo, strict=True)
-        ]:
-            section, _, key = path.partition(".")
-            doc[section] = {**doc.get(section, {}), key: value}
-            origin[path] = table
-        marker = "\x00sweep"
+    def check_values(self, label, scenario, fixed, parameters, combo, where) -> None:
+        """Validate one combination as a run applies it (``apply_overrides``: each spec checks
+        its settings; the layout again where a spatial setting changed)."""
+        pairs = list(fixed) + list(zip(parameters, combo, strict=True))
+        origin = {p: "fixed" for p, _ in fixed} | dict.fromkeys(parameters, where)
         try:
-            parse_scenario(doc, source=marker)
+            changed = apply_overrides(scenario, pairs)
+            if any(p.startswith("spatial.") for p, _ in pairs):
+                check_layout(changed)
         except ScenarioError as exc:
-            bad, _, problem = str(exc).removeprefix(f"{marker}: ").partition(": ")
+            bad, problem = exc.path, exc.problem
             if bad in origin:
                 self.fail(f"{origin[bad]}.{bad}", f"{problem} (scenario {label!r})")
             values = [f"{p} = {fmt_value(v)}" for p, v in zip(parameters, combo, strict=True)]

@@ -38,7 +38,6 @@ PASS_S = 2.0  # avoidance on: a robot stood this long beside a driving robot act
 LANE_GAP_M = 0.1  # ... in a place where it cannot step this far beyond a robot's width aside;
 # beside a robot at work at another site (pass_workers) it ...
 PASS_EXTRA_M = 3.0  # ... plans round it, and takes that path if at most this much longer, m
-LOOK_AHEAD = ("off", "on")  # values of the scenario key ``[spatial] look_ahead`` (avoidance on)
 # look_ahead: a robot whose way passes this close (centres) to a robot at work ...
 AHEAD_BLOCK_M = 0.9
 AHEAD_WAIT_S = 2.0  # ... that will work this much longer when it gets there plans round it,

@@ -59,6 +59,7 @@ import pymunk.batch as pb
 
 from sim.faults import build_faults, fault_seed_sequence
 from sim.scenario import Scenario
+from sim.spatial import layout
 from sim.spatial.contacts import ContactMonitor
 from sim.spatial.control import CONTROLS, ControlParts, control_kind
 from sim.spatial.controller import DiffDriveController
@@ -90,6 +91,9 @@ class PymunkWorld:
         recorder: optional ``sim.recording.TrajectoryRecorder`` fed robot poses while running.
         control: the control period: ``"array"``, ``"scalar"`` or ``"auto"`` (scalar for teams
             of up to ``sim.spatial.control.SMALL_TEAM`` robots, else array).
+        check_layout: refuse a layout a scenario file could not hold (robots on each other or
+            in a wall, a site no robot can reach: ``sim.spatial.layout``). Tests of states a
+            run can reach but not start from (robots touching, a task out of reach) pass False.
 
     Attributes:
         planner: the :class:`GridPlanner` the distance and time cost models bid with.
@@ -102,12 +106,21 @@ class PymunkWorld:
         collisions_robot_, collisions_wall_: contacts begun between robots, robot and wall.
     """
 
-    def __init__(self, scenario: Scenario, recorder=None, *, control: str = "auto") -> None:
+    def __init__(
+        self,
+        scenario: Scenario,
+        recorder=None,
+        *,
+        control: str = "auto",
+        check_layout: bool = True,
+    ) -> None:
         if scenario.spatial is None:
             raise ValueError(f"scenario {scenario.name!r} has no [spatial] table")
         self.scenario = scenario
         self.spatial = sp = scenario.spatial
         self.planner = GridPlanner(sp)
+        if check_layout:  # a scenario built in Python is checked here, as a file is on loading
+            layout.check_layout(scenario, self.planner)
         self.recorder = recorder
         self.control_kind = control_kind(control, scenario.n_robots)
         self.dt_s = sp.dt_s

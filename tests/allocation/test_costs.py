@@ -43,7 +43,11 @@ ABSTRACT = Scenario(
     cost=((7.0, INF), (5.0, 9.0)),
     exec_time_s=(30.0, 12.0),
 )
-SPATIAL_SCENARIO = dataclasses.replace(ABSTRACT, spatial=SPATIAL)
+SPATIAL_SCENARIO = dataclasses.replace(
+    ABSTRACT,
+    robots=(RobotSpec("R0", (0,), (1.0, 1.0)), RobotSpec("R1", (0, 1), (2.0, 2.0))),
+    spatial=SPATIAL,
+)
 POSITIONS = np.array([[1.0, 1.0], [2.0, 2.0]])
 SITES = np.array([[5.0, 5.0], [6.0, 6.0], [5.0, 5.0]])
 BATCH = Batch(0, 0, np.arange(3), np.array([0, 1, 0]), np.zeros(3, dtype=bool), SITES)

@@ -13,9 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from scenarios import loader, spatial_schema
+from scenarios import loader
 from scenarios.cli import main
 from scenarios.loader import ScenarioError
+from sim.scenario import core, schema, spatial
+from sim.spatial import layout
 
 CORPUS = sorted((Path(__file__).parent / "corpus").glob("*.toml"))
 
@@ -54,26 +56,24 @@ def pattern(node: ast.expr) -> str:
 def loader_checks() -> list[tuple[str, str]]:
     """Every validation check of the loader: (where, regex of the line it gives).
 
-    A check is a ``fail`` or ``check`` call on the validator (``v`` or ``self``) in
-    ``scenarios/loader.py`` and ``scenarios/spatial_schema.py``; ``Validator.check`` itself,
-    which only passes its arguments on, is not one.
+    A check is a call of ``fail(key, problem)`` in the loader (``scenarios/loader.py``), the
+    specs that check themselves (``sim/scenario/``) and the layout check
+    (``sim/spatial/layout.py``).
     """
     out = []
-    for module in (loader, spatial_schema):
+    for module in (loader, schema, core, spatial, layout):
         path = Path(module.__file__)
         for func in ast.walk(ast.parse(path.read_text())):
-            if not isinstance(func, ast.FunctionDef) or func.name == "check":
+            if not isinstance(func, ast.FunctionDef):
                 continue
             for call in ast.walk(func):
                 if not (
                     isinstance(call, ast.Call)
-                    and isinstance(call.func, ast.Attribute)
-                    and call.func.attr in {"fail", "check"}
-                    and isinstance(call.func.value, ast.Name)
-                    and call.func.value.id in {"v", "self"}
+                    and isinstance(call.func, ast.Name)
+                    and call.func.id == "fail"
                 ):
                     continue
-                key, problem = call.args[-2:] if call.func.attr == "check" else call.args[:2]
+                key, problem = call.args[:2]
                 where = f"{path.name}:{call.lineno} ({func.name})"
                 out.append((where, f": {pattern(key)}: {pattern(problem)}"))
     return out
@@ -91,9 +91,13 @@ def corpus_lines() -> list[str]:
 @pytest.mark.skipif(
     "MUTANT_UNDER_TEST" in os.environ, reason="reads the loader's source, which mutmut rewrites"
 )
-def test_every_loader_check_has_a_corpus_file():
+def test_every_loader_check_has_a_corpus_file(tmp_path):
+    """Every check is reached by a corpus file, or (a problem no file can express, a door other
+    than a file) by a case of ``test_python_door.py``."""
+    from tests.scenarios.test_python_door import door_lines
+
     checks = loader_checks()
     assert len(checks) >= 60  # the walk finds the checks (a refactor that hides them fails here)
-    lines = corpus_lines()
+    lines = corpus_lines() + [f"python: {line}" for line in door_lines(tmp_path)]
     missing = [w for w, rx in checks if not any(re.search(rx, line) for line in lines)]
     assert not missing, f"loader checks without a file in tests/scenarios/corpus/: {missing}"

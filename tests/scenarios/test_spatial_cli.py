@@ -198,11 +198,11 @@ def test_avoidance_on_a_scenario_without_space_is_one_line(tmp_path, capsys):
     code = main(["run", "paper", "--avoidance", "none", "--no-progress", "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and not out.exists()
-    assert "override 'spatial.avoidance': 'paper' has no [spatial] table" in err
+    assert "override: spatial.avoidance: 'paper' has no [spatial] table" in err
     code = main(["run", "paper", "--look-ahead", "on", "--no-progress", "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and not out.exists()
-    assert "override 'spatial.look_ahead': 'paper' has no [spatial] table" in err
+    assert "override: spatial.look_ahead: 'paper' has no [spatial] table" in err
 
 
 def test_stall_places_are_the_longest_cells_and_the_panels_their_groups():

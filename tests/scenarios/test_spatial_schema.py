@@ -128,12 +128,12 @@ def test_missing_site_list_for_a_type():
 @pytest.mark.parametrize(
     "key, value, needle",
     [
-        ("dt_s", 0.0, "spatial.dt_s: must be > 0"),
-        ("dt_s", -1.0, "spatial.dt_s: must be > 0, got -1.0"),
+        ("dt_s", 0.0, "spatial.dt_s: must be in (0, 0.05] s, got 0.0"),
+        ("dt_s", -1.0, "spatial.dt_s: must be in (0, 0.05] s, got -1.0"),
         ("dt_s", float("nan"), "spatial.dt_s: must be finite"),
         ("width_m", float("inf"), "spatial.width_m: must be finite"),
         ("control_hz", 1000.0, "spatial.control_hz: control (1000 Hz) cannot run faster"),
-        ("arrive_tol_m", 0.0, "spatial.arrive_tol_m: must be > 0"),
+        ("arrive_tol_m", 0.0, "spatial.arrive_tol_m: must be in (0, 10] m, got 0.0"),
         ("max_recoveries", 1.5, "spatial.max_recoveries: must be an integer"),
         ("grid_res_m", 1e-4, "spatial.grid_res_m: the grid would have more than"),
     ],
@@ -174,7 +174,7 @@ def test_arena_size_must_be_positive(key):
     for value in (0.0, -1.0):
         d = doc()
         d["spatial"][key] = value
-        fails(d, f"x.toml: spatial.{key}: must be > 0, got {value}")
+        fails(d, f"x.toml: spatial.{key}: must be in (0, 10,000] m, got {value}")
     d = doc()
     d["spatial"][key] = 0.5  # positive, but the first obstacle no longer fits
     fails(d, "x.toml: spatial.obstacles[0][0]: vertex (4, 4) outside the arena")
@@ -190,7 +190,7 @@ def test_drive_and_sites_must_be_tables_of_positive_numbers():
     for value in (0.0, -0.1):
         d = doc()
         d["spatial"]["drive"]["radius_m"] = value
-        fails(d, f"x.toml: spatial.drive.radius_m: must be > 0, got {value}")
+        fails(d, f"x.toml: spatial.drive.radius_m: must be in (0, 5] m, got {value}")
 
 
 def test_wheels_as_wide_as_the_robot_fit():
@@ -315,7 +315,7 @@ def test_numbers_at_their_limits_are_accepted(changes):
 def test_collision_slop_of_5_cm_is_refused():
     d = doc()
     d["spatial"]["collision_slop_m"] = 0.05
-    fails(d, "x.toml: spatial.collision_slop_m: must be below 0.05 m")
+    fails(d, "x.toml: spatial.collision_slop_m: must be in [0, 0.05) m, got 0.05")
 
 
 def test_warehouse_wide_differs_from_the_warehouse_only_in_its_cross_aisle():

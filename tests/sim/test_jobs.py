@@ -45,7 +45,7 @@ def make_world(
     sp = SpatialSpec(20.0, 10.0, tuple(obstacles), sites, drive, **spatial)
     robots = tuple(RobotSpec(f"R{j + 1}", (0, 1), tuple(xy)) for j, xy in enumerate(starts))
     scn = Scenario("t", ("A", "B"), robots, ((1.0, 1.0),) * len(robots), EXEC_S, spatial=sp)
-    world = PymunkWorld(scn, control=control)
+    world = PymunkWorld(scn, control=control, check_layout=False)  # sites where robots start
     world.reset(np.random.default_rng(seed))
     return world
 

@@ -428,9 +428,9 @@ def test_a_path_from_or_to_a_point_in_a_margin_starts_and_ends_there_via_the_nea
 
 
 def test_an_arena_cut_in_two_by_a_wall_has_no_path_across():
-    """A wall wider than the arena: no vertex of its grown outline lies in the arena, and no
+    """A wall as wide as the arena: no vertex of its grown outline lies in the arena, and no
     path crosses; each half plans as before."""
-    planner = open_planner(((-1.0, 9.5), (21.0, 9.5), (21.0, 10.5), (-1.0, 10.5)))
+    planner = open_planner(((0.0, 9.5), (20.0, 9.5), (20.0, 10.5), (0.0, 10.5)))
     assert len(planner.vertices_) == 0
     assert planner.path((2.0, 2.0), (2.0, 18.0)).shape == (0, 2)
     assert planner.distances([[2.0, 2.0]], [[2.0, 18.0]])[0, 0] == np.inf

@@ -160,7 +160,11 @@ def test_spatial_tasks_sit_on_their_types_sites(paper):
     two = ((1.0, 1.0), (2.0, 2.0))
     sites = tuple(tuple((x + 10 * i, y) for x, y in two) for i in range(paper.n_types))
     spatial = SpatialSpec(100.0, 100.0, (), sites)
-    stream = generate_stream(dataclasses.replace(paper, spatial=spatial), np.random.default_rng(3))
+    robots = tuple(
+        dataclasses.replace(r, start_xy=(50.0, 5.0 * j)) for j, r in enumerate(paper.robots)
+    )
+    scenario = dataclasses.replace(paper, robots=robots, spatial=spatial)
+    stream = generate_stream(scenario, np.random.default_rng(3))
     for i in range(paper.n_types):
         xs = stream.sites[stream.types == i]
         # every task of type i at one of its two sites, and both sites used

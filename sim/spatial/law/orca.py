@@ -84,7 +84,6 @@ SLACK_SHALLOW = 0.1  # ... where the heading runs nearly along it: |n . h| below
 RIGHT_BIAS_DEG = 30.0  # a robot with a binding half-plane prefers this much to the right
 KEEP_RIGHT = np.exp(-1j * np.radians(RIGHT_BIAS_DEG))  # that turn as a unit complex factor
 BIAS_ROOM_M = -np.inf  # ... only where the body has more room than this to an obstacle, m
-AVOIDANCE = ("orca", "none")  # values of the scenario key ``[spatial] avoidance``
 _BIG = 1e9
 
 

@@ -1,0 +1,113 @@
+"""Is the arena's layout usable? Robots' starts, task sites and reachability, checked once.
+
+Everything that would make a spatial run fail or hang is caught before any round runs, with a
+one-line :class:`sim.scenario.ScenarioError` naming the key: a robot that starts outside the
+arena, inside an obstacle or on top of another robot; a site inside an obstacle or too close to
+one (or to the arena wall) for a robot centre; a site that no capable robot can reach from its
+start (checked with the planner). The loader calls :func:`check_layout` on every scenario file,
+and the pymunk world on every scenario it is built with (a scenario built in Python too).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from sim.scenario import Scenario, SpatialSpec
+from sim.scenario.schema import fail
+from sim.spatial.navigation.planning import GridPlanner, polygon_signed_distance
+
+
+def check_layout(scenario: Scenario, planner: GridPlanner | None = None) -> None:
+    """Raise ScenarioError for the first start or site that makes the layout unusable.
+
+    Args:
+        scenario: a scenario with a ``spatial`` table (no check without one).
+        planner: the arena's planner, if the caller has one (else one is built).
+    """
+    spec = scenario.spatial
+    if spec is None:
+        return
+    starts = _starts(scenario, spec)
+    _sites(spec, scenario.task_types)
+    _reachable(scenario, spec, starts, planner or GridPlanner(spec))
+
+
+def inside_obstacle(spec: SpatialSpec, pts: np.ndarray, margin_m: float) -> np.ndarray:
+    """(n,) index of the first obstacle nearer than ``margin_m`` to each point, or -1."""
+    hit = np.full(len(pts), -1)
+    for k, poly in reversed(list(enumerate(spec.obstacles))):
+        near = polygon_signed_distance(pts, np.asarray(poly, dtype=float)) < margin_m
+        hit[near] = k
+    return hit
+
+
+def _starts(scenario: Scenario, spec: SpatialSpec) -> np.ndarray:
+    robots = scenario.robots
+    r = spec.drive.radius_m
+    starts = np.array([robot.start_xy for robot in robots], dtype=float)
+    for j, (x, y) in enumerate(starts):
+        if not (r <= x <= spec.width_m - r and r <= y <= spec.height_m - r):
+            fail(
+                f"robots[{j}].start",
+                f"({x:g}, {y:g}) puts a robot of radius {r:g} m outside the arena or into a wall",
+            )
+    hit = inside_obstacle(spec, starts, r)
+    for j in np.flatnonzero(hit >= 0).tolist():
+        fail(
+            f"robots[{j}].start",
+            f"({starts[j, 0]:g}, {starts[j, 1]:g}) overlaps or is inside "
+            f"spatial.obstacles[{hit[j]}] (robot radius {r:g} m)",
+        )
+    pairs = cKDTree(starts).query_pairs(2.0 * r, output_type="ndarray")
+    if len(pairs):  # touching (centres exactly two radii apart) is allowed
+        gaps = np.linalg.norm(starts[pairs[:, 0]] - starts[pairs[:, 1]], axis=1)
+        pairs = pairs[gaps < 2.0 * r]
+    if len(pairs):
+        a, b = sorted(pairs[np.lexsort(pairs.T[::-1])][0].tolist())
+        gap = float(np.linalg.norm(starts[a] - starts[b]))
+        fail(
+            f"robots[{b}].start",
+            f"overlaps robots[{a}] ({robots[a].name}): centres {gap:.3g} m apart, "
+            f"need >= {2 * r:g} m",
+        )
+    return starts
+
+
+def _sites(spec: SpatialSpec, types: tuple[str, ...]) -> None:
+    reach = spec.drive.radius_m + spec.clearance_m
+    for i, pts in enumerate(spec.sites):
+        arr = np.asarray(pts, dtype=float)
+        inside = inside_obstacle(spec, arr, 0.0)
+        near = inside_obstacle(spec, arr, reach)
+        far = np.array([spec.width_m - reach, spec.height_m - reach])
+        wall = ((arr < reach) | (arr > far)).any(axis=1)
+        for s in range(len(arr)):
+            where = f"spatial.sites.{types[i]}[{s}]"
+            xy = f"({arr[s, 0]:g}, {arr[s, 1]:g})"
+            if inside[s] >= 0:
+                fail(where, f"{xy} is inside spatial.obstacles[{inside[s]}]")
+            if near[s] >= 0:
+                fail(
+                    where,
+                    f"{xy} is within {reach:g} m (robot radius + clearance) of "
+                    f"spatial.obstacles[{near[s]}]: no robot centre can get there",
+                )
+            if wall[s]:
+                fail(where, f"{xy} is within {reach:g} m of the arena wall: unreachable")
+
+
+def _reachable(scenario: Scenario, spec, starts, planner: GridPlanner) -> None:
+    robots, types = scenario.robots, scenario.task_types
+    for i, pts in enumerate(spec.sites):
+        capable = [j for j, r in enumerate(robots) if i in r.capabilities]
+        dist = planner.distances(starts[capable], np.asarray(pts, dtype=float))
+        bad = np.argwhere(~np.isfinite(dist))
+        if len(bad):
+            jj, s = bad[0]
+            j = capable[jj]
+            fail(
+                f"spatial.sites.{types[i]}[{s}]",
+                f"unreachable from robots[{j}] ({robots[j].name}) starting at "
+                f"({starts[j, 0]:g}, {starts[j, 1]:g})",
+            )

@@ -23,7 +23,6 @@ import time
 
 import numpy as np
 
-import sim.spatial.contacts
 from scenarios.bench.arena import bench_scenario
 from sim.recording import TrajectoryRecorder
 from sim.spatial.world import PymunkWorld
@@ -127,12 +126,12 @@ def bench_sim(
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
         bare = bare_step_time(world, max(60, steps // 4))
-        free = sim.spatial.contacts.FREE_ITERATIONS
+        free = world.contacts.free_iterations
         try:  # the same with pymunk's default solver iterations throughout
-            sim.spatial.contacts.FREE_ITERATIONS = world.space.iterations = 10
+            world.contacts.free_iterations = world.space.iterations = 10
             bare10 = bare_step_time(world, max(60, steps // 4))
         finally:
-            sim.spatial.contacts.FREE_ITERATIONS = free
+            world.contacts.free_iterations = free
         bids_ms = _bids_ms(world, rng)
         out[str(n)] = {
             "steps_per_s": steps / wall,
@@ -162,17 +161,15 @@ def bench_sim(
 def replan_report(world: PymunkWorld, rng: np.random.Generator, calls: int = 20) -> dict:
     """What the jam rule's re-plan round robots costs (``GridPlanner.path_around``): mean ms
     of ``calls`` re-plans, each of a random robot to a random task site round the robots
-    within ``sim.spatial.jams.AROUND_M`` of it, as the rule builds them (``replan_ms``: the arena's
+    within ``[spatial.jams] around_m`` of it, as the rule builds them (``replan_ms``: the arena's
     visibility and grown obstacles reused) and with the whole graph built afresh
     (``replan_fresh_ms``), the same calls in the same run."""
-    from sim.spatial.jams import AROUND_M
-
     z = world.fleet.last_z_m
     sites = np.asarray(world.spatial.sites[0], dtype=float)
     radius = world.spatial.drive.radius_m
     jobs = []
     for j in rng.integers(0, len(z), size=calls).tolist():
-        close = np.abs(z - z[j]) < AROUND_M
+        close = np.abs(z - z[j]) < world.spatial.jams.around_m
         close[j] = False
         site = sites[rng.integers(0, len(sites))]
         jobs.append(((z[j].real, z[j].imag), tuple(site), z[close]))

@@ -214,8 +214,9 @@ def cmd_run(args) -> int:
     if scenario.spatial is not None:
         from scenarios.experiments.figures import contact_line, stall_line
 
-        print(contact_line(summary["spatial"]).replace("\n", "; "))
-        print(stall_line(summary["spatial"]))
+        sp = scenario.spatial
+        print(contact_line(summary["spatial"], contacts=sp.contacts).replace("\n", "; "))
+        print(stall_line(summary["spatial"], sp.stalls))
         if places:
             print(places + f" (map: {out}/stalls.png, stalls.npz)")
     return 0
@@ -242,7 +243,8 @@ def write_stall_map(out: Path, stalls: dict, spatial) -> str:
             "arena_wh": np.array(arena),
         },
     )
-    fig_stall_map(seconds, cell_m, arena, spatial.obstacles, out / "stalls.png")
+    still = spatial.stalls.still_mps
+    fig_stall_map(seconds, cell_m, arena, spatial.obstacles, out / "stalls.png", still)
     return places_line(stall_places(seconds, cell_m), cell_m)
 
 

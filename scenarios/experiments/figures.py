@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.spatial.contacts import IMPACT_MPS
-from sim.spatial.stalls import CAUSES, LONG_S, STILL_MPS
+from sim.scenario import ContactSpec, StallSpec
+from sim.spatial.stalls import CAUSES
 
 ALLOCATOR_COLOURS = {"market": "#4c72b0", "ql": "#dd8452", "expt": "#55a868"}
 ALLOCATOR_LABELS = {"market": "Market (MRTA)", "ql": "QL-MRTA", "expt": "ExpT-MRTA"}
@@ -316,9 +316,10 @@ def fig_run_spatial(table: dict, spatial: dict, cost: str, path: Path | None = N
     return fig
 
 
-def contact_line(spatial: dict, extra: str = "") -> str:
+def contact_line(spatial: dict, extra: str = "", contacts: ContactSpec | None = None) -> str:
     """Contacts begun per robot-hour by kind, the deepest overlap (then ``extra``) and the
-    one-line definition, on three lines."""
+    one-line definition (``contacts``: the run's ``[spatial.contacts]``), on three lines."""
+    impact_mps = (contacts or ContactSpec()).impact_mps
     rate = {k: spatial.get(f"contacts_{k}_per_robot_h", float("nan")) for k in CONTACT_KINDS}
     return "\n".join(
         [
@@ -326,7 +327,7 @@ def contact_line(spatial: dict, extra: str = "") -> str:
             f"{rate['robot_impact']:.2f} impact; robot-wall {rate['wall_touch']:.2f} touch, "
             f"{rate['wall_impact']:.2f} impact",
             f"deepest overlap {1000 * spatial.get('max_overlap_m', 0.0):.1f} mm{extra}",
-            f"(a contact begun is a touch below {IMPACT_MPS:g} m/s closing speed along its "
+            f"(a contact begun is a touch below {impact_mps:g} m/s closing speed along its "
             "normal, else an impact)",
         ]
     )
@@ -335,18 +336,20 @@ def contact_line(spatial: dict, extra: str = "") -> str:
 CONTACT_KINDS = ("robot_touch", "robot_impact", "wall_touch", "wall_impact")
 
 
-def stall_line(spatial: dict) -> str:
-    """Where driving robots stood still (``sim.spatial.stalls``), largest cause first, on one line;
-    empty for a summary without the stall counts."""
+def stall_line(spatial: dict, stalls: StallSpec | None = None) -> str:
+    """Where driving robots stood still (``sim.spatial.stalls``), largest cause first, on one line
+    (``stalls``: the run's ``[spatial.stalls]``); empty for a summary without the stall counts."""
+    stalls = stalls or StallSpec()
     if "still_share" not in spatial:
         return ""
     causes = [(k[len("still_s_") :], v) for k, v in spatial.items() if k.startswith("still_s_")]
     causes = sorted(causes, key=lambda kv: -kv[1])
     parts = ", ".join(f"{name.replace('_', ' ')} {v:,.0f} s" for name, v in causes if v > 0)
     long = sum(v for k, v in spatial.items() if k.startswith("still_long_s_"))
-    beyond = f"; {long:,.0f} s of it past {LONG_S:g} s into a stand" if long > 0 else ""
+    beyond = f"; {long:,.0f} s of it past {stalls.long_s:g} s into a stand" if long > 0 else ""
     return (
-        f"driving robots stood still (below {STILL_MPS:g} m/s) {spatial['still_share']:.1%} of "
+        f"driving robots stood still (below {stalls.still_mps:g} m/s) "
+        f"{spatial['still_share']:.1%} of "
         f"{spatial['driving_s']:,.0f} robot-s driving" + (f": {parts}" if parts else "") + beyond
     )
 
@@ -401,9 +404,11 @@ def fig_stall_map(
     arena_wh: tuple[float, float],
     obstacles,
     path: Path | None = None,
+    still_mps: float = StallSpec().still_mps,
 ):
     """Where driving robots stood still, one panel per group of causes (``STALL_GROUPS``):
-    robot-seconds per cell over the arena, obstacles in grey, cells with none left blank."""
+    robot-seconds per cell over the arena, obstacles in grey, cells with none left blank
+    (``still_mps``: the run's ``[spatial.stalls] still_mps``)."""
     import matplotlib as mpl
     from matplotlib.colors import LogNorm
     from matplotlib.patches import Polygon
@@ -432,7 +437,7 @@ def fig_stall_map(
             ax.set_title(f"{title}: {grid.sum():,.0f} robot-s")
             ax.tick_params(labelsize=8)
         fig.colorbar(image, ax=list(axes), shrink=0.8, label=f"robot-s per {cell_m:g} m cell")
-        fig.suptitle(f"Where driving robots stood still (commanded below {STILL_MPS:g} m/s)")
+        fig.suptitle(f"Where driving robots stood still (commanded below {still_mps:g} m/s)")
     save_figure(fig, path)
     return fig
 

@@ -46,11 +46,13 @@ def swap_world(
     drive: DriveSpec = ONE_MPS,
     look_ahead: str = "off",
     check_layout: bool = True,
+    settings: dict | None = None,
 ) -> PymunkWorld:
     """Robots at ``starts`` (m, 2), facing ``headings_deg`` (default +x), each sent at once to
     its own goal (one task type per robot, 1000 s of work: it stays there), in a ``size_m``
     arena with ``obstacles``, driving as ``drive``, with ``[spatial] look_ahead`` as given
-    (``check_layout``: as :class:`sim.spatial.world.PymunkWorld`)."""
+    (``check_layout``: as :class:`sim.spatial.world.PymunkWorld`; ``settings``: more
+    :class:`sim.scenario.SpatialSpec` fields, e.g. ``{"jams": JamSpec(pass_s=5.0)}``)."""
     n = len(starts)
     sp = SpatialSpec(
         size_m[0],
@@ -61,6 +63,7 @@ def swap_world(
         arrive_tol_m=0.1,
         avoidance=avoidance,
         look_ahead=look_ahead,
+        **(settings or {}),
     )
     heads = [0.0] * n if headings_deg is None else [float(a) for a in headings_deg]
     robots = tuple(
@@ -170,9 +173,11 @@ def run_case(
     jitter_m: float = 0.0,
     seed: int = 0,
     look_ahead: str = "off",
+    settings: dict | None = None,
 ) -> dict:
-    """Run hard case ``name`` with ``robots`` robots (the case's default if None) and
-    ``[spatial] look_ahead`` as given.
+    """Run hard case ``name`` with ``robots`` robots (the case's default if None),
+    ``[spatial] look_ahead`` as given and ``settings`` (more :class:`sim.scenario.SpatialSpec`
+    fields, e.g. ``{"jams": JamSpec(pass_s=5.0)}``; default: the bundled scenarios').
 
     ``jitter_m`` > 0 moves every start by a normal draw of that standard deviation (m, per
     coordinate, from ``numpy.random.default_rng(seed)``): the crowd cases are chaotic, and
@@ -206,7 +211,7 @@ def run_case(
         starts = np.asarray(starts, dtype=float)
         return starts + rng.normal(0.0, jitter_m, starts.shape)
 
-    world, done = case.build(n, control, avoidance, nudge, look_ahead=look_ahead)
+    world, done = case.build(n, control, avoidance, nudge, look_ahead=look_ahead, settings=settings)
     rec = None
     if recorder:
         sp = world.spatial

@@ -3,14 +3,16 @@
 :class:`ContactMonitor` registers begin/separate callbacks for robot-robot and robot-wall contacts
 and keeps ``touching``, the number of contacts touching now, and the contacts begun since reset.
 Each contact begun is a *touch* when the shapes approach along the contact normal slower than
-``IMPACT_MPS`` (0.3 m/s: two robots creeping at the old law's 0.15 m/s each), else an *impact*.
+``impact_mps`` (``[spatial.contacts]``, 0.3 m/s by default: two robots creeping at the proximity
+law's
+0.15 m/s each), else an *impact*.
 
 Solver iterations follow the contacts. While nothing touches, each robot is joined only to its own
 kinematic control body, whose mass is infinite, so the solver's constraints are independent of
 each other and one iteration solves each exactly: the result is the same, bit for bit, as with
 ten (``tests/sim/test_physics.py`` checks this). The moment a contact begins, in the begin
 callback, which pymunk calls during collision detection and so before that step's solver runs,
-the space switches to ``CONTACT_ITERATIONS``; when the last contact separates (again before the
+the space switches to ``iterations``; when the last contact separates (again before the
 solver) it goes back to one.
 
 Overlap: pymunk reports a contact once shapes overlap, and a contact's depth after ``step`` is
@@ -34,9 +36,7 @@ import pymunk
 import pymunk.batch as pb
 from pymunk._chipmunk_cffi import ffi, lib
 
-IMPACT_MPS = 0.3  # a contact begun at a closing speed of at least this is an impact, else a touch
-CONTACT_ITERATIONS = 10  # solver iterations while any contact touches (pymunk's default)
-FREE_ITERATIONS = 1  # ... while none does: the motor joints are independent, one is exact
+from sim.scenario import ContactSpec
 
 
 def closing_speed_mps(arbiter: pymunk.Arbiter) -> float:
@@ -53,21 +53,31 @@ class ContactMonitor:
     Args:
         space: the space; nothing may be added or removed while :meth:`run` steps it.
         robot, wall: collision types of robot shapes and of walls and obstacles.
+        buffer: the batch buffer to read contact depths into (reused: pymunk never frees one).
+        spec: the solver iterations and what counts as an impact (``[spatial.contacts]``).
     """
 
     def __init__(
-        self, space: pymunk.Space, robot: int, wall: int, buffer: pb.Buffer | None = None
+        self,
+        space: pymunk.Space,
+        robot: int,
+        wall: int,
+        buffer: pb.Buffer | None = None,
+        spec: ContactSpec | None = None,
     ) -> None:
+        spec = ContactSpec() if spec is None else spec
+        self.impact_mps = spec.impact_mps
+        self.iterations, self.free_iterations = spec.iterations, spec.free_iterations
         self.space = space
         self.ptr_ = space._space
         self.touching = 0  # contacts begun and not yet separated
         self.robot_hits = self.wall_hits = 0  # contacts begun since reset
-        self.robot_impacts = self.wall_impacts = 0  # ... of them at IMPACT_MPS or faster
+        self.robot_impacts = self.wall_impacts = 0  # ... of them at impact_mps or faster
         self.max_overlap_m = 0.0
         self.steps_touching = 0  # physics steps that ended with a contact touching
         space.on_collision(robot, robot, begin=self._begin_robot, separate=self._separate)
         space.on_collision(robot, wall, begin=self._begin_wall, separate=self._separate)
-        lib.cpSpaceSetIterations(self.ptr_, FREE_ITERATIONS)
+        lib.cpSpaceSetIterations(self.ptr_, self.free_iterations)
         self.buf_ = pb.Buffer() if buffer is None else buffer  # reused: pymunk never frees one
         self.buf_.clear()
         self.query_ = ffi.new("pmBatchedData *")
@@ -94,23 +104,23 @@ class ContactMonitor:
 
     def _touch(self) -> None:
         if not self.touching:
-            lib.cpSpaceSetIterations(self.ptr_, CONTACT_ITERATIONS)
+            lib.cpSpaceSetIterations(self.ptr_, self.iterations)
         self.touching += 1
 
     def _begin_robot(self, arbiter, space, data) -> None:
         self.robot_hits += 1
-        self.robot_impacts += closing_speed_mps(arbiter) >= IMPACT_MPS
+        self.robot_impacts += closing_speed_mps(arbiter) >= self.impact_mps
         self._touch()
 
     def _begin_wall(self, arbiter, space, data) -> None:
         self.wall_hits += 1
-        self.wall_impacts += closing_speed_mps(arbiter) >= IMPACT_MPS
+        self.wall_impacts += closing_speed_mps(arbiter) >= self.impact_mps
         self._touch()
 
     def _separate(self, arbiter, space, data) -> None:
         self.touching -= 1
         if not self.touching:
-            lib.cpSpaceSetIterations(self.ptr_, FREE_ITERATIONS)
+            lib.cpSpaceSetIterations(self.ptr_, self.free_iterations)
 
     def run(self, n: int, dt_s: float) -> None:
         """Take ``n`` physics steps of ``dt_s``, measuring the overlap after each that needs it."""

@@ -17,19 +17,13 @@ The robots' bodies and motors are :class:`sim.spatial.motors.Motors`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.scenario import DriveSpec
+from sim.scenario import DriveSpec, LawSpec
 from sim.spatial.law.drive import (
-    COS_AHEAD,
-    COS_TURN,
-    HEADING_GAIN,
-    KEEP_RIGHT_GAIN,
-    KEEP_RIGHT_M,
-    PROXIMITY_DECEL,
-    REACT_PERIODS,
-    TURN_FIRST_RADPS,
     approach_cap_mps,
     goes_our_way,
     pair_share_m,
@@ -51,11 +45,32 @@ class DiffDriveController:
         control_dt_s: the control period; the wheel-acceleration limit is applied per period.
         dense_max: up to this many robots, pairs of neighbours come from one (m, m) distance
             array; beyond, from a Verlet list (:meth:`neighbour_pairs`).
+        law: the steering and proximity law's settings (``[spatial.law]``).
+
+    Attributes (the law's settings, as the control periods read them):
+        heading_gain: turn rate commanded per radian of heading error, 1/s.
+        cos_turn, cos_ahead: cosines of the turn-in-place angle and of the angle within which a
+            robot is in the way.
+        creep_mps, speed_bound, same_way_cos, keep_right_gain, turn_first_radps: as
+            :class:`sim.scenario.LawSpec` says.
     """
 
-    def __init__(self, drive: DriveSpec, control_dt_s: float, dense_max: int = DENSE_MAX) -> None:
-        self.drive = drive
+    def __init__(
+        self,
+        drive: DriveSpec,
+        control_dt_s: float,
+        dense_max: int = DENSE_MAX,
+        law: LawSpec | None = None,
+    ) -> None:
+        law = LawSpec() if law is None else law
+        self.drive, self.law = drive, law
         self.dense_max = dense_max
+        self.heading_gain = law.heading_gain
+        self.cos_turn = math.cos(law.turn_in_place_rad)
+        self.cos_ahead = math.cos(math.radians(law.ahead_deg))
+        self.creep_mps, self.speed_bound = law.creep_mps, law.speed_bound
+        self.same_way_cos, self.keep_right_gain = law.same_way_cos, law.keep_right_gain
+        self.turn_first_radps = law.turn_first_radps
         self.half_base_m = drive.wheel_base_m / 2.0
         self.rim_max_mps = drive.max_wheel_speed_radps * drive.wheel_radius_m
         self.rim_step_mps = drive.max_wheel_accel_radps2 * drive.wheel_radius_m * control_dt_s
@@ -64,14 +79,16 @@ class DiffDriveController:
         self.brake_mps2 = 0.5 * drive.max_wheel_accel_radps2 * drive.wheel_radius_m
         self.radius_m = drive.radius_m
         self.contact_m = 2.0 * drive.radius_m
-        a = self.yield_mps2 = PROXIMITY_DECEL * drive.max_wheel_accel_radps2 * drive.wheel_radius_m
-        t = self.react_s = REACT_PERIODS * control_dt_s
+        a = self.yield_mps2 = (
+            law.proximity_decel * drive.max_wheel_accel_radps2 * drive.wheel_radius_m
+        )
+        t = self.react_s = law.react_periods * control_dt_s
         stop_m = self.v_max_mps * t + self.v_max_mps**2 / (2.0 * a)
         self.look_m = self.contact_m + 2.0 * stop_m  # farther apart, no speed cap can bind
-        self.keep_right_m = self.contact_m + KEEP_RIGHT_M
+        self.keep_right_m = self.contact_m + law.keep_right_m
         # v = v_max * clip((cos(err) - cos_turn) / (1 - cos_turn), 0, 1) as one affine map
-        self.align_gain_ = self.v_max_mps / (1.0 - COS_TURN)
-        self.align_bias_ = -COS_TURN * self.align_gain_
+        self.align_gain_ = self.v_max_mps / (1.0 - self.cos_turn)
+        self.align_bias_ = -self.cos_turn * self.align_gain_
         self.at_, self.at2_, self.inv2a_ = a * t, (a * t) ** 2, 0.5 / a
         self.two_a_ = 1.0 / self.inv2a_
         self.wheel_decel_ = drive.max_wheel_accel_radps2 * drive.wheel_radius_m
@@ -97,14 +114,16 @@ class DiffDriveController:
         v, stop = steer_speeds(np.cos(err), gap_m, corner2, gain, bias, brake2, np.sqrt)
         np.maximum(v, 0.0, out=v)
         np.minimum(v, stop, out=v)
-        err *= HEADING_GAIN
+        err *= self.heading_gain
         return v, err
 
     def _cap(self, share: np.ndarray, tau: np.ndarray) -> np.ndarray:
         """Top speed that covers at most ``share`` toward an obstacle at bearing cosine ``tau``
         (> 0) when held for the reaction time and then braked at ``yield_mps2``; at least the
         creep speed toward it (:func:`sim.spatial.law.drive.approach_cap_mps`)."""
-        cap, creep = approach_cap_mps(share, tau, self.two_a_, self.at_, self.at2_, np.sqrt)
+        cap, creep = approach_cap_mps(
+            share, tau, self.two_a_, self.at_, self.at2_, np.sqrt, self.creep_mps
+        )
         return np.maximum(cap, creep, out=cap)
 
     def proximity(
@@ -121,10 +140,10 @@ class DiffDriveController:
         travels), a robot gets g less the neighbour's need less the neighbour's half of the room
         that is left, min(g - theirs, (g - theirs + mine) / 2), at least 0. A robot that is
         already committed to most of the gap keeps it, and one standing beside it (or turning
-        onto it) may not drive into it. On contact ``CREEP_MPS`` of closing speed is left: robots
+        onto it) may not drive into it. On contact ``creep_mps`` of closing speed is left: robots
         may nudge, never ram (pymunk finds contacts once shapes overlap, so the closing speed at
         contact sets the overlap). Moving sideways or away is free. The nearest robot within
-        ``AHEAD_DEG`` of the direction of travel is reported as the one in the way.
+        ``ahead_deg`` of the direction of travel is reported as the one in the way.
 
         The rule is applied to every pair closer than ``look_m`` = contact + 2 x the stopping
         distance from top speed: farther apart, both can stop from top speed within their half of
@@ -194,7 +213,7 @@ class DiffDriveController:
         limit = np.full(m, np.inf)
         np.minimum.at(limit, i, self._cap(share, np.maximum(toward, 1e-9)))
         # the robot in the way: the nearest ahead, the lowest index among equally near ones
-        ahead = (toward > COS_AHEAD).nonzero()[0]
+        ahead = (toward > self.cos_ahead).nonzero()[0]
         near = np.full(m, np.inf)
         np.minimum.at(near, i[ahead], dist[ahead])
         first = ahead[dist[ahead] == near[i[ahead]]]
@@ -225,11 +244,11 @@ class DiffDriveController:
                 :meth:`proximity`; moving: (m,) bool, robots that drive on their own.
         """
         other = np.maximum(blocker, 0)
-        same_way = goes_our_way(th, th[other], np.cos)
+        same_way = goes_our_way(th, th[other], np.cos, self.same_way_cos)
         same_way &= moving[other]
         veer = near < self.keep_right_m  # near is finite only where there is a blocker
         veer &= ~same_way
-        return w_radps - veer * (KEEP_RIGHT_GAIN * self.omega_max_radps)
+        return w_radps - veer * (self.keep_right_gain * self.omega_max_radps)
 
     def neighbour_pairs(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Every pair of robots (i, k), both ways round, that could be closer than ``look_m``:
@@ -273,7 +292,7 @@ class DiffDriveController:
         Each wheel's rim speed v +- q (q = omega b / 2) may change by ``rim_step_mps`` per
         period. A robot that must slow down (|v| falls) takes its full deceleration first and
         turns with what is left. With ``turn_first`` (the law under collision avoidance), one
-        turning faster than ``TURN_FIRST_RADPS`` whose turn must slow (|q| falls or changes
+        turning faster than ``turn_first_radps`` whose turn must slow (|q| falls or changes
         sign) slows the turn first and changes speed with what is left, unless ORCA set its
         command (its guarantee needs that velocity); else speeding up would keep the turn going
         and carry the robot past its heading, off its path and into walls. Otherwise each wheel
@@ -305,7 +324,7 @@ class DiffDriveController:
         left = np.minimum(np.maximum(dv - dq, -s), s)
         if turn_first:
             q_target = q1 / over
-            turn = np.abs(q0) > TURN_FIRST_RADPS * self.half_base_m
+            turn = np.abs(q0) > self.turn_first_radps * self.half_base_m
             turn &= (np.abs(q_target) < np.abs(q0)) | (q_target * q0 < 0.0)
             turn &= ~brake
             if orca is not None:

@@ -16,8 +16,6 @@ import numpy as np
 
 from sim.states import DRIVING, IDLE, WORKING
 
-PROGRESS_M = 0.05  # less progress than this along the path does not reset the stuck clock
-
 
 @dataclass(slots=True, eq=False)
 class FleetState:

@@ -9,7 +9,7 @@ and, with ``[spatial] look_ahead = "on"``, a robot whose way runs past one at wo
 still be there when it comes plans round it beforehand, if that is quicker than waiting
 (:meth:`Jams.look_ahead`);
 a jam in a single-lane place, or two robots standing together alone, is acted on after
-``PASS_S`` rather than at the stuck timeout (:meth:`Jams.break_jams`).
+``pass_s`` rather than at the stuck timeout (:meth:`Jams.break_jams`).
 :class:`~sim.spatial.jobs.Jobs` owns one: its stuck recovery calls the first two, and the pymunk
 world calls the last two after each control period.
 """
@@ -22,27 +22,12 @@ import numpy as np
 
 from sim.scenario import SpatialSpec
 from sim.spatial.controller import DiffDriveController
-from sim.spatial.fleet import PROGRESS_M, FleetState
+from sim.spatial.fleet import FleetState
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.sites import SLOT_GAP_M, Sites
-from sim.spatial.stalls import NEAR_M, STILL_MPS, nearest_other
+from sim.spatial.sites import Sites
+from sim.spatial.stalls import nearest_other
 from sim.states import DRIVING, WORKING
-
-DEADLOCK_M = 1.5  # driving robots this close, one of them stuck: a deadlock (avoidance on)
-AROUND_M = 3.0  # avoidance on: a stuck robot plans round the robots this close (centres), m
-DETOUR_FACTOR = 3.0  # ... and takes that path if at most this times the path it had ...
-DETOUR_EXTRA_M = 10.0  # ... plus this, m
-PASS_S = 2.0  # avoidance on: a robot stood this long beside a driving robot acts on the jam
-# (break_jams) ...
-LANE_GAP_M = 0.1  # ... in a place where it cannot step this far beyond a robot's width aside;
-# beside a robot at work at another site (pass_workers) it ...
-PASS_EXTRA_M = 3.0  # ... plans round it, and takes that path if at most this much longer, m
-# look_ahead: a robot whose way passes this close (centres) to a robot at work ...
-AHEAD_BLOCK_M = 0.9
-AHEAD_WAIT_S = 2.0  # ... that will work this much longer when it gets there plans round it,
-AHEAD_GROW_M = 0.3  # ... the robot at work grown by this (a 2 m aisle is closed), and takes that
-# way if driving its extra length at top speed is quicker than that wait
 
 
 class Jams:
@@ -54,8 +39,8 @@ class Jams:
         follower: the robots' paths.
         planner: plans the ways round robots and back.
         controller: the drive limits (robot radius).
-        spatial: the world's spatial table (``max_recoveries``: tries, shared with the stuck
-            recovery).
+        spatial: the world's spatial table (``[spatial.jams]``: the rules' distances and times;
+            ``max_recoveries``: tries, shared with the stuck recovery).
         refresh: brings the schedule up to date after an event
         (:meth:`sim.spatial.jobs.Jobs.refresh`).
 
@@ -79,6 +64,7 @@ class Jams:
         self.fleet, self.sites = fleet, sites
         self.follower, self.planner, self.controller = follower, planner, controller
         self.spatial = spatial
+        self.rules = spatial.jams
         self.refresh = refresh
         m = len(fleet.state)
         self.origin = fleet.site.copy()
@@ -87,14 +73,14 @@ class Jams:
         self.began = np.zeros(m, dtype=bool)  # ... and robots that began work, since the last
 
     def go_round(self, j: int, t: float) -> bool:
-        """Robot j is stuck among other robots (collision avoidance on; within ``AROUND_M``):
+        """Robot j is stuck among other robots (collision avoidance on; within ``around_m``):
         it plans a path to its site with them as obstacles (``GridPlanner.path_around``) and
-        takes it if it is at most ``DETOUR_FACTOR`` times the path it had plus
-        ``DETOUR_EXTRA_M``, counting a try. If one of them has just done so in this check, j
+        takes it if it is at most ``detour_factor`` times the path it had plus
+        ``detour_extra_m``, counting a try. If one of them has just done so in this check, j
         waits one stuck timeout for it instead. False, and nothing changes, when no robot is
         near, j has used its tries or no such path exists (then :meth:`give_way`)."""
         f, z = self.fleet, self.fleet.last_z_m
-        close = np.abs(z - z[j]) < AROUND_M
+        close = np.abs(z - z[j]) < self.rules.around_m
         close[j] = False
         if not close.any() or f.recoveries[j] >= self.spatial.max_recoveries:
             return False
@@ -108,7 +94,7 @@ class Jams:
         if not len(path):
             return False
         length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
-        if length > DETOUR_FACTOR * f.left_m[j] + DETOUR_EXTRA_M:
+        if length > self.rules.detour_factor * f.left_m[j] + self.rules.detour_extra_m:
             return False
         f.recoveries[j] += 1
         self.around_s[j] = t
@@ -122,12 +108,12 @@ class Jams:
         before a control period's jam rules): robot-aware planning.
         A robot given a task (``due``), or one whose way a robot that began work (``began``)
         blocks, is looked at (the marks are cleared): if it drives toward its place (not
-        holding in a queue or let in at its site) and its way passes within ``AHEAD_BLOCK_M``
+        holding in a queue or let in at its site) and its way passes within ``ahead_block_m``
         of a robot at work for another site, at a point more than that far along it (ahead,
         not beside it already: :meth:`pass_workers`), that will still work more than
-        ``AHEAD_WAIT_S`` when it gets there at top speed, it plans its way round the robots
-        at work at other sites within ``AROUND_M`` of its way, each grown by
-        ``AHEAD_GROW_M`` (``GridPlanner.path_around``), and takes that way if its extra
+        ``ahead_wait_s`` when it gets there at top speed, it plans its way round the robots
+        at work at other sites within ``around_m`` of its way, each grown by
+        ``ahead_grow_m`` (``GridPlanner.path_around``), and takes that way if its extra
         length at top speed takes less than the longest such wait. Without it a robot drives
         up to one at work in a 2 m aisle, where ORCA leaves a band of about 10 cm to pass
         in, and stands there (``docs/avoidance.md``)."""
@@ -144,18 +130,20 @@ class Jams:
             return
         if len(began) and drive.any():  # whose way a robot that began work blocks
             rows = drive.nonzero()[0]
-            look[rows[self.waits(rows, began, t)[0].max(axis=1) > AHEAD_WAIT_S]] = True
+            look[rows[self.waits(rows, began, t)[0].max(axis=1) > self.rules.ahead_wait_s]] = True
         rows = look.nonzero()[0]
         if not len(rows):
             return
         v_max, radius = fol.v_max_mps, self.controller.radius_m
         wait, _, gap = self.waits(rows, work, t)
-        for row in (wait.max(axis=1) > AHEAD_WAIT_S).nonzero()[0].tolist():
+        for row in (wait.max(axis=1) > self.rules.ahead_wait_s).nonzero()[0].tolist():
             j = int(rows[row])
             site = (f.site[j].real, f.site[j].imag)
             start = (z[j].real, z[j].imag)
-            round_them = z[work[gap[row] < AROUND_M]]
-            path = self.planner.path_around(start, site, round_them, radius + AHEAD_GROW_M)
+            round_them = z[work[gap[row] < self.rules.around_m]]
+            path = self.planner.path_around(
+                start, site, round_them, radius + self.rules.ahead_grow_m
+            )
             if not len(path):
                 continue
             length = float(np.abs(np.diff(path[:, 0] + 1j * path[:, 1])).sum())
@@ -173,7 +161,7 @@ class Jams:
     def waits(self, rows: np.ndarray, work: np.ndarray, t: float):
         """For robots ``rows`` and robots at work ``work``, each (n, w): how long each would wait
         for each (work left after getting there along its way at top speed; 0 where the way
-        does not pass within ``AHEAD_BLOCK_M``, or the robot at work is at its own site), the
+        does not pass within ``ahead_block_m``, or the robot at work is at its own site), the
         way's length to the point nearest it, m, and how near the way passes it (inf: it
         works at the robot's own site), m."""
         f, fol, z = self.fleet, self.follower, self.fleet.last_z_m
@@ -191,7 +179,7 @@ class Jams:
         near = gap.argmin(axis=2)  # (n, w): the segment passing nearest
         pick = np.take_along_axis
         nearest = pick(gap, near[..., None], axis=2)[..., 0]
-        close = nearest < AHEAD_BLOCK_M
+        close = nearest < self.rules.ahead_block_m
         seg_m = np.sqrt(seg2)
         after = fol.after_m[rows]
         rest = pick(after, near, axis=1) + (
@@ -203,36 +191,40 @@ class Jams:
         along = total - rest
         other = np.abs(self.sites.service[rows, None] - self.sites.service[work][None, :]) > 1e-6
         left = f.work_end_s[work][None, :] - t - along / fol.v_max_mps
-        ahead = along > AHEAD_BLOCK_M  # ahead of it, not beside it already
+        ahead = along > self.rules.ahead_block_m  # ahead of it, not beside it already
         wait = np.where(close & ahead & other, np.maximum(left, 0.0), 0.0)
         return wait, along, np.where(other, nearest, np.inf)
 
     def standing_near(self, t: float) -> list[tuple[int, int]]:
         """Collision avoidance on: (j, k) for each driving robot j commanded to stand (below
-        ``STILL_MPS``; not holding in a queue, backing off or replanning) for ``PASS_S`` since
-        its last progress whose nearest robot k is within ``NEAR_M``. Found once per control
-        period for :meth:`pass_workers` and :meth:`break_jams` (the nearest-robot search is
+        ``stalls.still_mps``; not holding in a queue, backing off or replanning) for ``pass_s``
+        since its last progress whose nearest robot k is within ``stalls.near_m``. Found once per
+        control period for :meth:`pass_workers` and :meth:`break_jams` (the nearest-robot search is
         a k-d tree over the fleet in a large team)."""
         f = self.fleet
-        if t - float(f.t_progress_s.min()) < PASS_S:
+        if t - float(f.t_progress_s.min()) < self.rules.pass_s:
             return []
-        still = (f.state == DRIVING) & (np.abs(f.v_cmd_mps) < STILL_MPS) & ~self.sites.holding
-        still &= ~f.replan & (f.backoff_until_s <= t) & (t - f.t_progress_s >= PASS_S)
+        still = (
+            (f.state == DRIVING)
+            & (np.abs(f.v_cmd_mps) < self.spatial.stalls.still_mps)
+            & ~self.sites.holding
+        )
+        still &= ~f.replan & (f.backoff_until_s <= t) & (t - f.t_progress_s >= self.rules.pass_s)
         rows = still.nonzero()[0]
         if not len(rows):
             return []
-        other, dist = nearest_other(f.last_z_m, rows)
+        other, dist = nearest_other(f.last_z_m, rows, self.spatial.stalls.near_m)
         pairs = zip(rows.tolist(), other.tolist(), dist.tolist(), strict=True)
-        return [(j, k) for j, k, d in pairs if d < NEAR_M]
+        return [(j, k) for j, k, d in pairs if d < self.spatial.stalls.near_m]
 
     def pass_workers(self, t: float, near: list[tuple[int, int]] | None = None) -> None:
         """Collision avoidance on, after a control period: a robot standing beside a robot at
-        work (:meth:`standing_near`) for another site with more than ``PASS_S`` of work
+        work (:meth:`standing_near`) for another site with more than ``pass_s`` of work
         left plans its way to its
         place (``fleet.site``: the service point, or the slot it was let in to) round the
-        robots within ``AROUND_M`` (``GridPlanner.path_around``) and takes that path if it is
+        robots within ``around_m`` (``GridPlanner.path_around``) and takes that path if it is
         longer than the path it has left (else no robot is in its way: it stands for another
-        reason, such as turning) by at most ``PASS_EXTRA_M``, and the extra drive at top speed
+        reason, such as turning) by at most ``pass_extra_m``, and the extra drive at top speed
         takes less than the work left. Not a recovery try: waiting beside a robot at
         work that is in the way is not being stuck, only slow (README, "Collision
         avoidance"); a robot that does not take the path is asked again in the next period."""
@@ -246,16 +238,20 @@ class Jams:
             if abs(service[j] - service[k]) < 1e-6:  # k works at j's site: the site's
                 continue  # queue decides (service: the site; f.site: the place to go)
             left_s = f.work_end_s[k] - t
-            if left_s <= PASS_S:
+            if left_s <= self.rules.pass_s:
                 continue
-            close = np.abs(z - z[j]) < AROUND_M
+            close = np.abs(z - z[j]) < self.rules.around_m
             close[j] = False
             site = (f.site[j].real, f.site[j].imag)
             path = self.planner.path_around((z[j].real, z[j].imag), site, z[close], radius)
             if not len(path):
                 continue
             extra = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) - f.left_m[j]
-            if extra <= PROGRESS_M or extra > PASS_EXTRA_M or extra / v_max >= left_s:
+            if (
+                extra <= self.spatial.recovery.progress_m
+                or extra > self.rules.pass_extra_m
+                or extra / v_max >= left_s
+            ):
                 continue  # the way it has (no robot in it), too long, or slower than waiting
             self.follower.set_path(j, path)
             f.progress_m[j], f.t_progress_s[j] = np.inf, t
@@ -280,7 +276,7 @@ class Jams:
         drives = f.state == DRIVING
         driving, standing = z[drives], z[~drives]  # (no robot stops or starts in the loop)
         for j, k in near:
-            if not drives[k] or t - f.t_progress_s[j] < PASS_S:
+            if not drives[k] or t - f.t_progress_s[j] < self.rules.pass_s:
                 continue  # (pass_workers may have given j a path in this period)
             lane = self.single_lane(j, k, standing) or self.single_lane(k, j, standing)
             if not (lane or self.standoff(j, k, driving)):
@@ -290,16 +286,16 @@ class Jams:
 
     def single_lane(self, j: int, k: int, standing: np.ndarray | None = None) -> bool:
         """True if robot j cannot step aside of the line toward robot k: neither point two
-        radii plus ``LANE_GAP_M`` to its side is on the planner's free space (which keeps a
+        radii plus ``lane_gap_m`` to its side is on the planner's free space (which keeps a
         radius and the clearance from obstacles) clear of the robots that stand (at work or
         idle) by two radii. A gap or door narrower than about 2 x (2 radii + clearance) +
-        ``LANE_GAP_M`` is single-lane, as is an aisle a robot at work narrows so; open floor,
+        ``lane_gap_m`` is single-lane, as is an aisle a robot at work narrows so; open floor,
         or a 2 m aisle (for 0.25 m robots), is not. ``standing``: the positions of the robots
         not driving, if the caller has them."""
         f, r = self.fleet, self.controller.radius_m
         z = f.last_z_m
         u = (z[k] - z[j]) / max(abs(z[k] - z[j]), 1e-9)
-        side = z[j] + 1j * u * np.array([1.0, -1.0]) * (2.0 * r + LANE_GAP_M)
+        side = z[j] + 1j * u * np.array([1.0, -1.0]) * (2.0 * r + self.rules.lane_gap_m)
         free = np.array([self.planner.free_one(p.real, p.imag) for p in side.tolist()])
         if not free.any():
             return True
@@ -310,22 +306,22 @@ class Jams:
 
     def standoff(self, j: int, k: int, driving: np.ndarray | None = None) -> bool:
         """True if robots j and k stand together alone: k too is commanded to stand, and no
-        other driving robot is within ``DEADLOCK_M`` of j (which way they face is not looked
+        other driving robot is within ``deadlock_m`` of j (which way they face is not looked
         at). Two robots whose ways cross
         can stop each other for good where ORCA's half-planes leave each only a standstill; in a
         crowd (the circle swap) robots stop a moment in turn, and ORCA sorts them out.
         ``driving``: the positions of the driving robots, if the caller has them."""
         f, z = self.fleet, self.fleet.last_z_m
-        if abs(f.v_cmd_mps[k]) >= STILL_MPS:
+        if abs(f.v_cmd_mps[k]) >= self.spatial.stalls.still_mps:
             return False
         driving = z[f.state == DRIVING] if driving is None else driving
-        return int(np.count_nonzero(np.abs(driving - z[j]) < DEADLOCK_M)) == 2  # j and k
+        return int(np.count_nonzero(np.abs(driving - z[j]) < self.rules.deadlock_m)) == 2  # j and k
 
     def give_way(self, j: int, t: float) -> bool:
         """Deadlock between driving robots (collision avoidance on; no robot pushes): of robot
-        j and the driving robots within ``DEADLOCK_M``, the one with the highest index that can
+        j and the driving robots within ``deadlock_m``, the one with the highest index that can
         back out (:meth:`backed_in`: its way back is free; and it has tries left; the highest
-        index if none can) goes back to ``DEADLOCK_M`` beyond where it was given its task (or
+        index if none can) goes back to ``deadlock_m`` beyond where it was given its task (or
         there, if that is not free) and only then on to its site, so the others get through;
         the others wait. A robot with another in its way back cannot back out: choosing it
         would leave the jam as it was. Giving way is a try (``max_recoveries``): a robot chosen
@@ -333,7 +329,9 @@ class Jams:
         chosen once its tries are used, so the choice passes to another, and the wait is
         bounded. True if j gave way or waits."""
         f, z = self.fleet, self.fleet.last_z_m
-        close = (f.state == DRIVING) & ~self.sites.holding & (np.abs(z - z[j]) < DEADLOCK_M)
+        close = (
+            (f.state == DRIVING) & ~self.sites.holding & (np.abs(z - z[j]) < self.rules.deadlock_m)
+        )
         close[j] = False
         if not close.any():
             return False
@@ -349,7 +347,7 @@ class Jams:
         xy, spot = (z[j].real, z[j].imag), (refuge.real, refuge.imag)
         back = self.planner.path(xy, spot)
         on = self.planner.path(spot, (f.site[j].real, f.site[j].imag))
-        if not (len(back) and len(on)) or abs(z[j] - refuge) < 0.5 * DEADLOCK_M:
+        if not (len(back) and len(on)) or abs(z[j] - refuge) < 0.5 * self.rules.deadlock_m:
             return False
         f.recoveries[j] += 1
         self.follower.set_path(j, np.concatenate([back, on[1:]]))
@@ -358,18 +356,18 @@ class Jams:
         return True
 
     def refuge(self, j: int) -> complex:
-        """Where robot j backs out to when it gives way: ``DEADLOCK_M`` beyond where it was
+        """Where robot j backs out to when it gives way: ``deadlock_m`` beyond where it was
         given its task, away from where it is (that place itself if the point is not free)."""
         z = self.fleet.last_z_m[j]
         away = self.origin[j] - z
-        refuge = self.origin[j] + DEADLOCK_M * away / max(abs(away), 1e-9)
+        refuge = self.origin[j] + self.rules.deadlock_m * away / max(abs(away), 1e-9)
         if not self.planner.free(np.array([[refuge.real, refuge.imag]]))[0]:
             refuge = self.origin[j]
         return refuge
 
     def backed_in(self, j: int) -> bool:
         """True if another robot stands in robot j's way back: within two radii plus
-        ``SLOT_GAP_M`` of the first ``DEADLOCK_M`` of the path toward its :meth:`refuge`, and
+        ``queue.slot_gap_m`` of the first ``deadlock_m`` of the path toward its :meth:`refuge`, and
         nearest to a point of it more than a radius along (past j's own body) and short of
         that stretch's end: a robot beside j, in front of it or beyond that stretch is not in
         the way. The way is the planned path, which in a narrow place can leave in another
@@ -389,7 +387,7 @@ class Jams:
         if not len(seg):
             return False
         start = np.concatenate([[0.0], np.cumsum(np.abs(seg))[:-1]])
-        take = start < DEADLOCK_M  # the segments of the first DEADLOCK_M of the way
+        take = start < self.rules.deadlock_m  # the segments of the first deadlock_m of the way
         a, d, s0 = way[:-1][take], seg[take], start[take]
         others = np.delete(np.arange(len(z)), j)
         rel = (z[others, None] - a[None, :]) / d[None, :]  # in each segment's frame, / length
@@ -398,5 +396,5 @@ class Jams:
         best = dist.argmin(axis=1)
         rows = np.arange(len(others))
         along = s0[best] + u[rows, best] * np.abs(d[best])
-        near = dist[rows, best] < 2.0 * r + SLOT_GAP_M
-        return bool((near & (along > r) & (along < DEADLOCK_M)).any())
+        near = dist[rows, best] < 2.0 * r + self.spatial.queue.slot_gap_m
+        return bool((near & (along > r) & (along < self.rules.deadlock_m)).any())

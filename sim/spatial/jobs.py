@@ -18,20 +18,13 @@ import numpy as np
 from sim.scenario import SpatialSpec
 from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import Clock, FleetState, Schedule, refresh_schedule
-from sim.spatial.jams import LANE_GAP_M, Jams
+from sim.spatial.jams import Jams
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.sites import YIELD_STEP_M, YIELD_TIMEOUT_S, Sites
-from sim.spatial.stalls import NEAR_M, STILL_MPS
+from sim.spatial.sites import Sites
 from sim.states import DRIVING, IDLE, WORKING
 from sim.tasks import Batch
 from sim.world import Abandon, Completion
-
-BACKOFF_S = 1.5  # a stuck robot reverses on a random arc this long, then replans
-RECOVERED_M = 5.0  # this much closer to its site than where it got stuck, its tries start again
-YIELD_TRIGGER_M = 0.3  # a driving robot this close (beyond contact) to an idle one asks it to move
-DETOUR_M = 1.0  # a robot blocked by one that stands still passes it this far to the side
-REPAIR_WAIT_S = 300.0  # a robot whose only ways are blocked by broken robots waits this long
 
 
 class Jobs:
@@ -51,8 +44,8 @@ class Jobs:
         rng: the world's generator (back-off arcs).
         keep_lists: keep the state and the steering robots as Python lists in the schedule
             (the scalar control period reads them).
-        clear_sites: under collision avoidance robots never push: a robot that finished and
-            stands on the service point another robot comes for steps ``YIELD_STEP_M`` clear
+        avoid: under collision avoidance robots never push: a robot that finished and
+            stands on the service point another robot comes for steps ``make_way.step_m`` clear
             of it, one at work there sends the newcomer to a service slot
             (:meth:`sim.spatial.sites.Sites.take_slots`), and a robot whose site is taken by a robot
             at work waits for that work to end instead of recovering. Sites also keep a queue
@@ -86,17 +79,18 @@ class Jobs:
         bodies: list,
         rng: np.random.Generator,
         keep_lists: bool,
-        clear_sites: bool = False,
+        avoid: bool = False,
     ) -> None:
         self.fleet, self.schedule, self.clock = fleet, schedule, clock
         self.follower, self.planner, self.controller = follower, planner, controller
         self.spatial = spatial
+        self.recovery, self.stepping = spatial.recovery, spatial.make_way
         self.exec_time_s = exec_time_s
         self.reach_m = reach_m
         self.bodies = bodies
         self.rng = rng
         self.keep_lists = keep_lists
-        self.clear_sites = clear_sites
+        self.avoid = avoid
         self.done: list[Completion] = []
         self.failures = 0
         self.broken = np.zeros(len(fleet.state), dtype=bool)  # set by the world (sim.faults)
@@ -111,6 +105,7 @@ class Jobs:
             planner=planner,
             controller=controller,
             bodies=bodies,
+            spatial=spatial,
             reach_m=reach_m,
             broken=self.broken,
             blocked=self.blocked,
@@ -183,7 +178,7 @@ class Jobs:
         """When robot j, given its way of ``length_m`` at ``t``, must begin work by: four times
         the way at top speed, the work, every recovery try and half a minute."""
         sp = self.spatial
-        slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + BACKOFF_S) + 30.0
+        slack = (sp.max_recoveries + 1) * (sp.stuck_timeout_s + self.recovery.backoff_s) + 30.0
         v_max = self.follower.v_max_mps
         return t + self.exec_time_s[self.fleet.task_type[j]] + 4 * length_m / v_max + slack
 
@@ -198,7 +193,7 @@ class Jobs:
         """Robot j (driving) has no way to its site while broken robots stand in it: it holds
         where it is (a path to its own position; its stuck clock stopped, so it is drawn as
         waiting) until a repair opens a way (:meth:`retry_blocked`), for at most
-        ``REPAIR_WAIT_S`` more than its task would have had."""
+        ``recovery.repair_wait_s`` more than its task would have had."""
         f = self.fleet
         site = (f.site[j].real, f.site[j].imag)
         way = self.base_planner.path(xy, site)
@@ -207,7 +202,7 @@ class Jobs:
         self.follower.set_path(j, np.array([xy, xy], dtype=float))
         f.left_m[j] = length
         f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
-        f.deadline_s[j] = self.deadline_s(j, length, t) + REPAIR_WAIT_S
+        f.deadline_s[j] = self.deadline_s(j, length, t) + self.recovery.repair_wait_s
 
     def retry_blocked(self, t: float) -> None:
         """Broken robots were repaired (or moved): each robot waiting for a repair plans again
@@ -271,7 +266,7 @@ class Jobs:
         """End the work that is done and the tasks whose robot has not begun work by their
         deadline (work begun is finished: the deadline bounds getting there)."""
         f = self.fleet
-        if self.clear_sites and t >= self.sites.queue_check_s:
+        if self.avoid and t >= self.sites.queue_check_s:
             self.sites.queue(t)
         if t + 1e-9 >= self.schedule.next_end_s:
             self.finish_work(t)
@@ -312,7 +307,7 @@ class Jobs:
         f.t_progress_s[j] = np.inf
         self.blocked[j] = False
         self.follower.clear(j)
-        if self.clear_sites:
+        if self.avoid:
             self.sites.release(j)
             if not self.sites.leave(j, t_done_s):
                 self.sites.pull_over(j, t_done_s)
@@ -355,12 +350,12 @@ class Jobs:
         after ``max_recoveries`` tries, fail."""
         sp, f = self.spatial, self.fleet
         b, z = int(f.blocker[j]), f.last_z_m
-        blocked = b >= 0 and f.near_m[j] < self.reach_m + YIELD_TRIGGER_M
+        blocked = b >= 0 and f.near_m[j] < self.reach_m + self.stepping.trigger_m
         if blocked and f.state[b] == WORKING and f.work_end_s[b] - t <= sp.stuck_timeout_s:
             # boxed in by a robot at work that is nearly done: not stuck, wait for it
             f.t_progress_s[j] = f.work_end_s[b]
             return
-        if self.clear_sites:
+        if self.avoid:
             taken = (f.state == WORKING) & (np.abs(z - f.site[j]) < 2.0 * self.controller.radius_m)
             if taken.any():  # its site is taken by a robot at work: wait for it to step clear
                 f.t_progress_s[j] = float(f.work_end_s[taken].min())
@@ -377,7 +372,7 @@ class Jobs:
             travel = np.exp(1j * self.bodies[j].angle)
             site = (f.site[j].real, f.site[j].imag)
             others = np.delete(z, j)
-            path = self.planner.detour(z[j], z[b], travel, DETOUR_M, site, others)
+            path = self.planner.detour(z[j], z[b], travel, self.recovery.detour_m, site, others)
             if len(path):  # go round the robot that stands in the way
                 self.follower.set_path(j, path)
                 f.progress_m[j], f.t_progress_s[j] = np.inf, t
@@ -385,20 +380,20 @@ class Jobs:
         c = self.controller
         turn = self.rng.uniform(-0.5, 0.5) * c.omega_max_radps
         f.backoff_cmd[j] = (-0.3 * c.v_max_mps, turn)
-        f.backoff_until_s[j] = t + BACKOFF_S
+        f.backoff_until_s[j] = t + self.recovery.backoff_s
         f.t_progress_s[j] = np.inf
         f.replan[j] = True
         self.follower.clear(j)
         self.refresh()
 
     def ask_idle(self, j: int, t: float) -> bool:
-        """Collision avoidance on, robot j stuck: the nearest idle robot within ``NEAR_M`` (not
-        broken) steps off j's way (:meth:`step_off`), and j waits one stuck timeout for it,
+        """Collision avoidance on, robot j stuck: the nearest idle robot within ``stalls.near_m``
+        (not broken) steps off j's way (:meth:`step_off`), and j waits one stuck timeout for it,
         spending a try. The speed caps ask only an idle robot straight ahead (:meth:`make_way`);
         ORCA stops a robot for one beside it too: an idle robot against the shelf at the mouth
         of a single-lane gap, off to one side, held a robot in the gap until its task failed
         (warehouse, QL-MRTA, seed 4, with ORCA's 10 neighbours). One already stepping aside or
-        driving out of a site is asked too if it stands (commanded below ``STILL_MPS``): one
+        driving out of a site is asked too if it stands (commanded below ``stalls.still_mps``): one
         that drove out through the service slot another robot was sent to stood there, face
         to face with that robot, until the other's task failed (warehouse, QL-MRTA, seed 0, at
         b773752). False, and nothing changes, if no idle robot is near, j has used its tries
@@ -407,17 +402,19 @@ class Jobs:
         if f.recoveries[j] >= self.spatial.max_recoveries:
             return False
         z = f.last_z_m
-        standing = np.abs(f.v_cmd_mps) < STILL_MPS  # stepping aside, but not moving
+        standing = (
+            np.abs(f.v_cmd_mps) < self.spatial.stalls.still_mps
+        )  # stepping aside, but not moving
         idle = (f.state == IDLE) & (~f.yielding | standing) & ~self.broken
         dist = np.where(idle, np.abs(z - z[j]), np.inf)
         k = int(dist.argmin())
-        if not dist[k] < NEAR_M:
+        if not dist[k] < self.spatial.stalls.near_m:
             return False
         path = self.step_off(k, j, z)
         if not len(path):
             return False
         self.follower.set_paths([k], [path])
-        f.yielding[k], f.yield_until_s[k] = True, t + YIELD_TIMEOUT_S
+        f.yielding[k], f.yield_until_s[k] = True, t + self.stepping.timeout_s
         f.recoveries[j] += 1
         f.t_progress_s[j] = t
         self.refresh()
@@ -425,11 +422,11 @@ class Jobs:
 
     def step_off(self, k: int, j: int, z: np.ndarray) -> np.ndarray:
         """A short path (collision avoidance on) that takes idle robot k off the way of robot j:
-        ``YIELD_STEP_M``, else twice that, to the side of j's way away from j, the other side or
+        ``make_way.step_m``, else twice that, to the side of j's way away from j, the other side or
         straight on along it (j's next path segment; its heading without a path), to the first
         end point that is free, half a step clear of the other robots, at least two radii and
-        ``LANE_GAP_M`` off the rest of j's path, and reached by a planned path at most twice the
-        step long that keeps two radii from j (a robot closer to a wall than the planner's free
+        ``jams.lane_gap_m`` off the rest of j's path, and reached by a planned path at most twice
+        the step long that keeps two radii from j (a robot closer to a wall than the planner's free
         space can step off it too). A step along j's way, or into a gap j's path runs through,
         only moved the jam: in the warehouse (market, seed 6) an idle robot ahead of a driving
         one was stepped into the 1 m cross-aisle gap that the driving robot's way ran through,
@@ -444,16 +441,16 @@ class Jobs:
             travel = np.exp(1j * self.bodies[j].angle)
         lateral = 1j * travel
         side = 1.0 if ((z[k] - z[j]) * lateral.conj()).real >= 0.0 else -1.0
-        close = np.abs(z - z[k]) < 3.0 * YIELD_STEP_M
+        close = np.abs(z - z[k]) < 3.0 * self.stepping.step_m
         close[k] = False
-        for step in (YIELD_STEP_M, 2.0 * YIELD_STEP_M):
+        for step in (self.stepping.step_m, 2.0 * self.stepping.step_m):
             for toward in (side * lateral, -side * lateral, travel):
                 end = z[k] + step * toward
                 if not self.planner.free_one(end.real, end.imag):
                     continue
-                if close.any() and np.abs(z[close] - end).min() < 0.5 * YIELD_STEP_M:
+                if close.any() and np.abs(z[close] - end).min() < 0.5 * self.stepping.step_m:
                     continue
-                if _to_polyline(np.array([end]), way)[0] < 2.0 * r + LANE_GAP_M:
+                if _to_polyline(np.array([end]), way)[0] < 2.0 * r + self.spatial.jams.lane_gap_m:
                     continue
                 path = self.planner.path((z[k].real, z[k].imag), (end.real, end.imag))
                 if not len(path):
@@ -467,7 +464,7 @@ class Jobs:
         return np.zeros((0, 2))
 
     def recovered(self, rows: list[int]) -> None:
-        """Robots ``rows`` came ``RECOVERED_M`` closer to their site than where they last got
+        """Robots ``rows`` came ``recovered_m`` closer to their site than where they last got
         stuck: that obstruction is behind them, and their tries start again."""
         f = self.fleet
         for j in rows:
@@ -508,19 +505,19 @@ class Jobs:
             b = int(blocker[j])
             if f.yielding[b] or self.broken[b]:  # asked in this period, or cannot move
                 continue
-            if self.clear_sites:  # collision avoidance on: off the driving robot's way
+            if self.avoid:  # collision avoidance on: off the driving robot's way
                 path = self.step_off(b, j, z)
             else:
                 travel = h[j] if v[j] >= 0 else -h[j]
-                # the side step's end point must keep YIELD_STEP_M / 2 from the other robots:
-                # only those within 1.5 YIELD_STEP_M of b could be that close (2 for rounding)
-                close = np.abs(z - z[b]) < 2.0 * YIELD_STEP_M
+                # the side step's end point must keep make_way.step_m / 2 from the other robots:
+                # only those within 1.5 make_way.step_m of b could be that close (2 for rounding)
+                close = np.abs(z - z[b]) < 2.0 * self.stepping.step_m
                 close[b] = False
-                path = self.planner.side_step(z[b], z[j], travel, YIELD_STEP_M, z[close])
+                path = self.planner.side_step(z[b], z[j], travel, self.stepping.step_m, z[close])
             if len(path):
                 rows.append(b)
                 paths.append(path)
-                f.yielding[b], f.yield_until_s[b] = True, t + YIELD_TIMEOUT_S
+                f.yielding[b], f.yield_until_s[b] = True, t + self.stepping.timeout_s
         self.follower.set_paths(rows, paths)
         self.refresh()
 

@@ -1,7 +1,7 @@
 """Task sites with room for more than one robot (collision avoidance on): service slots and
 queues.
 
-A site has a service point and up to ``SLOTS`` service slots round it. :class:`Sites` lets
+A site has a service point and up to ``slots`` service slots round it. :class:`Sites` lets
 robots in to a free place, first come first served, holds the others in the site's queue
 (drawn as waiting, not stuck), sends a robot that finds the service point taken to a slot, and
 makes a robot that finished (or stands idle) near a site others come to step clear or drive
@@ -17,24 +17,13 @@ from collections.abc import Callable
 
 import numpy as np
 
+from sim.scenario import SpatialSpec
 from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import FleetState, Schedule
-from sim.spatial.law.drive import SPEED_BOUND, next_check_s
+from sim.spatial.law.drive import next_check_s
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
 from sim.states import DRIVING, IDLE, WORKING
-
-SLOTS = 4  # service slots on a ring around each service point (collision avoidance on)
-SLOT_GAP_M = 0.35  # a robot in a slot keeps this much air to the one on the service point, m
-QUEUE_M = 2.5  # avoidance on: a robot this close to a site with every place taken holds here
-CROWD_M = 1.0  # ... as does one this close (centres) to a robot already holding for that site
-EXIT_M = 1.5  # a robot that finished where others hold drives this far beyond QUEUE_M out
-EXIT_TIMEOUT_S = 20.0  # ... and gives up driving out after this long
-HOLD_MAX_S = 300.0  # a robot may hold in a site's queue this long before its task times out
-YIELD_STEP_M = 1.0  # how far an idle robot steps aside
-YIELD_TIMEOUT_S = 6.0
-PULL_ROOM_M = 1.0  # an idle robot with less room than this to an obstacle pulls over to it ...
-PULL_GAP_M = 0.15  # ... leaving this much air between its body and the obstacle, m
 
 
 class Sites:
@@ -48,6 +37,8 @@ class Sites:
         planner: plans the ways to a place and out of a site.
         controller: the drive limits (robot radius).
         bodies: the robots' pymunk bodies (which way a robot on a service point faces).
+        spatial: the world's spatial table (``[spatial.queue]``: slots and queues;
+            ``[spatial.make_way]``: stepping aside).
         reach_m: robot centres closer than this are touching, m.
         broken: (m,) robots broken down (``sim.faults``), shared with the owner and written
             by the world in place; a broken robot steps nowhere.
@@ -61,7 +52,7 @@ class Sites:
         slotted: working toward a service slot.
         admitted: let in to its site: a place is kept for it.
         holding: holding in its site's queue; ``hold_since_s``: since when, s.
-        queue_check_s: no robot can come within ``QUEUE_M`` of its site before this, s.
+        queue_check_s: no robot can come within ``queue_m`` of its site before this, s.
     """
 
     def __init__(
@@ -73,6 +64,7 @@ class Sites:
         planner: GridPlanner,
         controller: DiffDriveController,
         bodies: list,
+        spatial: SpatialSpec,
         reach_m: float,
         broken: np.ndarray,
         blocked: np.ndarray,
@@ -81,6 +73,7 @@ class Sites:
         self.fleet, self.schedule = fleet, schedule
         self.follower, self.planner, self.controller = follower, planner, controller
         self.bodies = bodies
+        self.rules, self.stepping = spatial.queue, spatial.make_way
         self.reach_m = reach_m
         self.broken = broken
         self.blocked = blocked
@@ -108,12 +101,12 @@ class Sites:
 
     def take_slots(self, rows: list[int], z: np.ndarray, t: float) -> None:
         """Robots ``rows`` are near their site and not there: where a standing robot takes the
-        service point, each goes to the nearest free service slot instead (``SLOTS`` points on
-        a ring two robot radii plus ``SLOT_GAP_M`` around it, clear of obstacles, of standing
+        service point, each goes to the nearest free service slot instead (``slots`` points on
+        a ring two robot radii plus ``slot_gap_m`` around it, clear of obstacles, of standing
         robots and of the slots other robots drive to) and works there; with none free it
         waits where it is for the service point."""
         f, r = self.fleet, self.controller.radius_m
-        ring, room = 2.0 * r + SLOT_GAP_M, 2.0 * r + 0.5 * SLOT_GAP_M
+        ring, room = 2.0 * r + self.rules.slot_gap_m, 2.0 * r + 0.5 * self.rules.slot_gap_m
         standing = ((f.state != DRIVING) & ~f.yielding).nonzero()[0]
         changed, idle = False, []
         for j in rows:
@@ -126,7 +119,7 @@ class Sites:
             if (f.state[on_it] == IDLE).all():  # finished there: it steps clear
                 idle += [int(b) for b in on_it if not f.yielding[b] and int(b) not in idle]
                 continue
-            cand = site + ring * np.exp(2j * np.pi * np.arange(SLOTS) / SLOTS)
+            cand = site + ring * np.exp(2j * np.pi * np.arange(self.rules.slots) / self.rules.slots)
             ok = self.planner.free(np.column_stack([cand.real, cand.imag]))
             ok &= np.abs(z[standing][:, None] - cand[None]).min(axis=0) >= room
             driving = (f.state == DRIVING).nonzero()[0]
@@ -150,13 +143,13 @@ class Sites:
 
     def queue(self, t: float) -> None:
         """Site queues (collision avoidance on). A driving robot not yet let in that is within
-        ``QUEUE_M`` of its site, or within ``CROWD_M`` of a robot holding for that site, is let
+        ``queue_m`` of its site, or within ``crowd_m`` of a robot holding for that site, is let
         in while the site has a free place (its service point and obstacle-free slots, less
         the robots let in or at work there), first come first served; otherwise it holds
         where it is (a path to its own position; its stuck clock stopped, so it is drawn as
         waiting) until a place is free. Holding does not use up a task's time: the deadline
         of a robot let in after holding moves on by the time it held, and while it holds it
-        has ``HOLD_MAX_S`` more. Schedules the next check."""
+        has ``hold_max_s`` more. Schedules the next check."""
         f, z = self.fleet, self.fleet.last_z_m
         driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t) & ~self.blocked
         if not driving.any():
@@ -164,21 +157,28 @@ class Sites:
             return
         gap = np.abs(z - self.service)
         cand = driving & ~self.admitted
-        near = cand & (gap < QUEUE_M)
+        near = cand & (gap < self.rules.queue_m)
         held = self.holding.nonzero()[0]
         if len(held):
             rest = cand.nonzero()[0]
             same = np.abs(self.service[rest, None] - self.service[held][None, :]) < 1e-6
-            crowd = same & (np.abs(z[rest, None] - z[held][None, :]) < CROWD_M)
+            crowd = same & (np.abs(z[rest, None] - z[held][None, :]) < self.rules.crowd_m)
             near[rest[crowd.any(axis=1)]] = True
-        far = float(np.where(driving & (gap >= QUEUE_M), gap, np.inf).min()) - QUEUE_M
-        self.queue_check_s = next_check_s(t, far, SPEED_BOUND * self.follower.v_max_mps)
-        if (driving & (gap < QUEUE_M)).any():  # robots hold or come in: look next period
+        far = (
+            float(np.where(driving & (gap >= self.rules.queue_m), gap, np.inf).min())
+            - self.rules.queue_m
+        )
+        self.queue_check_s = next_check_s(
+            t, far, self.controller.speed_bound * self.follower.v_max_mps
+        )
+        if (driving & (gap < self.rules.queue_m)).any():  # robots hold or come in: look next period
             self.queue_check_s = t
         rows = near.nonzero()[0]
         if len(rows):
             self.let_in_or_hold(rows, gap, t)
-        self.clear_loiterers(driving & ((self.admitted & (gap < QUEUE_M)) | self.holding), t)
+        self.clear_loiterers(
+            driving & ((self.admitted & (gap < self.rules.queue_m)) | self.holding), t
+        )
 
     def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
         """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them), first
@@ -192,7 +192,9 @@ class Sites:
                 changed |= self.let_in(j, place, t)
             elif not self.holding[j]:
                 self.holding[j], self.hold_since_s[j] = True, t
-                f.deadline_s[j] += HOLD_MAX_S  # waiting its turn does not run its clock out
+                f.deadline_s[j] += (
+                    self.rules.hold_max_s
+                )  # waiting its turn does not run its clock out
                 here = np.array([[z[j].real, z[j].imag]] * 2)
                 self.follower.set_path(j, here)
                 f.progress_m[j], f.t_progress_s[j] = -np.inf, np.inf  # no stuck clock
@@ -204,7 +206,7 @@ class Sites:
         """The place robot j would be given at its site now: the service point if free, else
         the free slot nearest to it; a place is taken when a robot let in to or at work at any
         site keeps a place, or a robot that is not driving (at work, idle, on its way out)
-        stands, within two radii and half ``SLOT_GAP_M`` of it (a site's own places are further
+        stands, within two radii and half ``slot_gap_m`` of it (a site's own places are further
         apart than that, so a place kept for a site less than a slot ring away takes the places
         it overlaps). None if every place is taken."""
         f, r = self.fleet, self.controller.radius_m
@@ -214,7 +216,7 @@ class Sites:
         keeping[j] = False
         kept = f.site[keeping]
         standing = (f.state != DRIVING).nonzero()[0]
-        room = 2.0 * r + 0.5 * SLOT_GAP_M
+        room = 2.0 * r + 0.5 * self.rules.slot_gap_m
         taken = np.zeros(len(cand), dtype=bool)
         if len(kept):
             taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < room
@@ -233,7 +235,7 @@ class Sites:
         held = self.holding[j]
         if held:
             self.holding[j] = False
-            f.deadline_s[j] += t - self.hold_since_s[j] - HOLD_MAX_S
+            f.deadline_s[j] += t - self.hold_since_s[j] - self.rules.hold_max_s
             self.hold_since_s[j] = np.inf
         if place == f.site[j] and not held:
             return False
@@ -248,23 +250,23 @@ class Sites:
 
     def place_points(self, site: complex) -> np.ndarray:
         """The places of ``site``: its service point, then its obstacle-free service slots
-        (``SLOTS`` on a ring two robot radii plus ``SLOT_GAP_M`` round it), x + iy (cached)."""
+        (``slots`` on a ring two robot radii plus ``slot_gap_m`` round it), x + iy (cached)."""
         if site not in self._places:
-            ring = 2.0 * self.controller.radius_m + SLOT_GAP_M
-            cand = site + ring * np.exp(2j * np.pi * np.arange(SLOTS) / SLOTS)
+            ring = 2.0 * self.controller.radius_m + self.rules.slot_gap_m
+            cand = site + ring * np.exp(2j * np.pi * np.arange(self.rules.slots) / self.rules.slots)
             ok = self.planner.free(np.column_stack([cand.real, cand.imag]))
             self._places[site] = np.concatenate([[site], cand[ok]])
         return self._places[site]
 
     def clear_loiterers(self, coming: np.ndarray, t: float) -> None:
-        """Idle robots standing within ``QUEUE_M`` of a site that robots ``coming`` (a mask:
+        """Idle robots standing within ``queue_m`` of a site that robots ``coming`` (a mask:
         let in to it, or holding in its queue) come to drive out (:meth:`leave`)."""
         f = self.fleet
         idle = (f.state == IDLE) & ~f.yielding & ~self.broken
         if not (idle.any() and coming.any()):
             return
         sites = np.unique(self.service[coming])
-        near = np.abs(f.last_z_m[idle][:, None] - sites[None, :]) < QUEUE_M
+        near = np.abs(f.last_z_m[idle][:, None] - sites[None, :]) < self.rules.queue_m
         moved = False
         for j, k in zip(*near.nonzero(), strict=True):
             j = int(idle.nonzero()[0][j])
@@ -275,8 +277,8 @@ class Sites:
 
     def leave(self, j: int, t: float, site: complex | None = None) -> bool:
         """Robot j finished (or failed, or stands idle) near ``site`` (its task's by default)
-        that other robots come to (within ``QUEUE_M + EXIT_M``): it drives out,
-        ``EXIT_M`` beyond ``QUEUE_M`` from the site, to the free one of 11 end points (straight
+        that other robots come to (within ``self.rules.queue_m + self.rules.exit_m``): it drives
+        out, ``exit_m`` beyond ``queue_m`` from the site, to the free one of 11 end points (straight
         away from the site, then turned by 30 to 150 degrees either way) whose straight line
         passes farthest from the robots around it (clearances of two robot reaches and more
         count alike; then the least turned), so the next in the queue gets its place; a line
@@ -285,10 +287,10 @@ class Sites:
         ``refresh``."""
         f, z = self.fleet, self.fleet.last_z_m[j]
         site = self.service[j] if site is None else site
-        if abs(z - site) >= QUEUE_M or self.broken[j]:
+        if abs(z - site) >= self.rules.queue_m or self.broken[j]:
             return False
         coming = (f.state == DRIVING) & (np.abs(self.service - site) < 1e-6)
-        coming &= np.abs(f.last_z_m - site) < QUEUE_M + EXIT_M
+        coming &= np.abs(f.last_z_m - site) < self.rules.queue_m + self.rules.exit_m
         if not coming.any():
             return False
         away = z - site
@@ -296,10 +298,10 @@ class Sites:
             away = -np.exp(1j * self.bodies[j].angle)
         away /= abs(away)
         turns = np.radians(np.arange(-150, 151, 30))
-        ends = site + (QUEUE_M + EXIT_M) * away * np.exp(1j * turns)
+        ends = site + (self.rules.queue_m + self.rules.exit_m) * away * np.exp(1j * turns)
         ok = self.planner.free(np.column_stack([ends.real, ends.imag]))
         # the straight way out that passes farthest from the robots around (ties: least turned)
-        around = np.abs(f.last_z_m - z) < QUEUE_M + EXIT_M
+        around = np.abs(f.last_z_m - z) < self.rules.queue_m + self.rules.exit_m
         around[j] = False
         clear = self.clearance(z, ends, f.last_z_m[around])
         # ... and never straight at a robot driving in (let in, not holding): both would stop
@@ -309,34 +311,36 @@ class Sites:
             path = self.planner.path((z.real, z.imag), (ends[k].real, ends[k].imag))
             if len(path):
                 self.follower.set_path(j, path)
-                f.yielding[j], f.yield_until_s[j] = True, t + EXIT_TIMEOUT_S
+                f.yielding[j], f.yield_until_s[j] = True, t + self.rules.exit_timeout_s
                 return True
         return False
 
     def pull_over(self, j: int, t: float) -> bool:
         """Robot j, idle where no robot comes to its site, stands in a narrow place (less than
-        ``PULL_ROOM_M`` between its body and the nearest obstacle): it pulls over toward that
-        obstacle to ``PULL_GAP_M`` of air, so a robot can pass it. True if it drives there;
-        the caller calls ``refresh``."""
+        ``make_way.pull_room_m`` between its body and the nearest obstacle): it pulls over toward
+        that obstacle to ``make_way.pull_gap_m`` of air, so a robot can pass it. True if it drives
+        there; the caller calls ``refresh``."""
         f, r = self.fleet, self.controller.radius_m
         z = complex(f.last_z_m[j])
         if self.broken[j]:
             return False
         ob = complex(self.follower.to_obstacle(np.array([z]))[0])
         d = abs(ob)
-        if not np.isfinite(d) or not (PULL_GAP_M + 0.05 < d - r < PULL_ROOM_M):
+        if not np.isfinite(d) or not (
+            self.stepping.pull_gap_m + 0.05 < d - r < self.stepping.pull_room_m
+        ):
             return False
-        end = z + ob / d * (d - r - PULL_GAP_M)
+        end = z + ob / d * (d - r - self.stepping.pull_gap_m)
         if not self.planner.free_one(end.real, end.imag):
             return False
         others = np.delete(f.last_z_m, j)
-        if len(others) and np.abs(others - end).min() < 2.0 * r + SLOT_GAP_M:
+        if len(others) and np.abs(others - end).min() < 2.0 * r + self.rules.slot_gap_m:
             return False
         path = self.planner.path((z.real, z.imag), (end.real, end.imag))
         if not len(path):
             return False
         self.follower.set_path(j, path)
-        f.yielding[j], f.yield_until_s[j] = True, t + YIELD_TIMEOUT_S
+        f.yielding[j], f.yield_until_s[j] = True, t + self.stepping.timeout_s
         return True
 
     @staticmethod
@@ -352,7 +356,7 @@ class Sites:
 
     def step_clear(self, rows: list[int], t: float) -> None:
         """Idle robots ``rows`` stand on a service point another robot comes for: each steps
-        ``YIELD_STEP_M`` aside (to the left or right of its heading, whichever is free); one
+        ``make_way.step_m`` aside (to the left or right of its heading, whichever is free); one
         with no free step stays where it is. The caller calls ``refresh``."""
         f, z = self.fleet, self.fleet.last_z_m
         steps, paths = [], []
@@ -360,13 +364,15 @@ class Sites:
             if self.broken[j]:  # a broken robot cannot step anywhere
                 continue
             travel = np.exp(1j * self.bodies[j].angle)
-            close = np.abs(z - z[j]) < 2.0 * YIELD_STEP_M
+            close = np.abs(z - z[j]) < 2.0 * self.stepping.step_m
             close[j] = False
-            path = self.planner.side_step(z[j], z[j] - travel, travel, YIELD_STEP_M, z[close])
+            path = self.planner.side_step(
+                z[j], z[j] - travel, travel, self.stepping.step_m, z[close]
+            )
             if len(path):
                 steps.append(j)
                 paths.append(path)
-                f.yielding[j], f.yield_until_s[j] = True, t + YIELD_TIMEOUT_S
+                f.yielding[j], f.yield_until_s[j] = True, t + self.stepping.timeout_s
         self.follower.set_paths(steps, paths)
 
     def state_arrays(self) -> dict[str, np.ndarray]:

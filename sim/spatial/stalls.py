@@ -1,9 +1,9 @@
 """Where driving robots stand still, and what stands in their way.
 
-A robot on its way to a task that is commanded less than ``STILL_MPS`` in a control period
+A robot on its way to a task that is commanded less than ``still_mps`` in a control period
 stands still for that period (turning in place, waiting for a way through, holding in a site's
 queue). :class:`StallMeter` counts those periods by cause: the site queue it holds in, or the
-nearest other robot within ``NEAR_M`` and what that robot does (the robot collision avoidance
+nearest other robot within ``near_m`` and what that robot does (the robot collision avoidance
 stops it for is not always the one a speed cap names, so the meter looks for itself). With collision
 avoidance on, this is where the time goes that avoidance costs (README, "Collision
 avoidance"): ``mrta run`` prints it on one line and its ``metrics.json`` holds it under
@@ -11,7 +11,7 @@ avoidance"): ``mrta run`` prints it on one line and its ``metrics.json`` holds i
 (``still_share``).
 
 Short stops and jams: a stand is the unbroken run of standing periods of one robot on one
-task. The meter also counts, by cause, the standing that comes after the first ``LONG_S`` of a
+task. The meter also counts, by cause, the standing that comes after the first ``long_s`` of a
 stand (``still_long_s_<cause>``): a robot that stands 7 s adds 7 s to ``still_s_`` and 5 s to
 ``still_long_s_``; stops to turn or to let a robot by add nothing there.
 
@@ -19,10 +19,10 @@ Causes (``CAUSES``): ``queue`` (holding for a place at its site), ``robot_at_wor
 ``robot_idle`` (idle, stepping aside or driving out of a site), ``robot_head_on`` (a driving
 robot heading more than 135 degrees away from its heading), ``robot_same_way`` (less than 45
 degrees), ``robot_crossing`` (between), ``no_robot`` (turning at a corner, braking for a wall,
-no robot within ``NEAR_M``).
+no robot within ``near_m``).
 
 Where: given the arena's size, the meter also keeps a map, the standing periods by cause in
-square cells (``MAP_CELL_M``, coarser in a large arena so that the longer side has at most
+square cells (``map_cell_m``, coarser in a large arena so that the longer side has at most
 ``MAP_MAX_CELLS``): :meth:`StallMeter.seconds_map`. ``mrta run`` draws it (``stalls.png``)
 and writes it (``stalls.npz``), and names the cells robots stood in longest.
 """
@@ -34,17 +34,13 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
+from sim.scenario import StallSpec
 from sim.states import DRIVING, WORKING
 
-STILL_MPS = 0.1  # a driving robot commanded slower than this stands still, m/s
-NEAR_M = 1.2  # the nearest robot counts within this (centre distance), m
+SMALL_TEAM = 32  # up to this many robots a period is counted in plain Python (numpy's overhead)
 DENSE_MAX = 64  # up to this many robots the nearest is found from all distances, else a k-d tree
-SMALL_MAX = 32  # up to this many robots a period is counted in plain Python (numpy's overhead)
 TREE_K = 9  # a large team: the robots looked at for the nearest (on a square grid 4 tie)
-MAP_CELL_M = 0.5  # side of a cell of the map of where robots stand, m ...
 MAP_MAX_CELLS = 128  # ... or coarser, so that the arena's longer side has at most this many
-# standing beyond this much of a stand counts as long (the jam rules' sim.spatial.jams.PASS_S)
-LONG_S = 2.0
 CAUSES = (
     "queue",
     "robot_at_work",
@@ -67,22 +63,36 @@ class StallMeter:
         width_m, height_m: the arena, for the map of where robots stand (none without them).
         n_robots: the fleet's size, if known: a checkpoint's stands must be of that many
             robots (0: not checked).
+        spec: what counts as standing, near and long (``[spatial.stalls]``).
+        small_max: up to this many robots a period is counted in plain Python (numpy's
+            overhead), else over arrays (the same counts).
     """
 
     def __init__(
-        self, period_s: float, width_m: float = 0.0, height_m: float = 0.0, n_robots: int = 0
+        self,
+        period_s: float,
+        width_m: float = 0.0,
+        height_m: float = 0.0,
+        n_robots: int = 0,
+        spec: StallSpec | None = None,
+        small_max: int = SMALL_TEAM,
     ) -> None:
+        spec = StallSpec() if spec is None else spec
+        self.still_mps, self.near_m = spec.still_mps, spec.near_m
+        self.small_max = small_max
         self.period_s = period_s
         self.n_robots = n_robots
         self.driving = 0  # robot-periods driving (state DRIVING)
         self.still = np.zeros(len(CAUSES), dtype=np.int64)  # robot-periods standing, by cause
-        self.long = np.zeros(len(CAUSES), dtype=np.int64)  # ... beyond LONG_S into a stand
-        self.long_after = round(LONG_S / period_s)  # periods of a stand before it counts as long
+        self.long = np.zeros(len(CAUSES), dtype=np.int64)  # ... beyond long_s into a stand
+        self.long_after = round(
+            spec.long_s / period_s
+        )  # periods of a stand before it counts as long
         # per robot (sized at the first period): standing periods of its stand so far, and the
         # task it stands on (a stand ends when the robot moves or its task changes)
         self.run = np.zeros(0, dtype=np.int64)
         self.run_task = np.zeros(0, dtype=np.int64)
-        self.cell_m = max(MAP_CELL_M, max(width_m, height_m) / MAP_MAX_CELLS)
+        self.cell_m = max(spec.map_cell_m, max(width_m, height_m) / MAP_MAX_CELLS)
         nx = math.ceil(width_m / self.cell_m - 1e-9) if width_m > 0 else 0
         ny = math.ceil(height_m / self.cell_m - 1e-9) if height_m > 0 else 0
         # robot-periods standing by cause, cell (row: y, column: x)
@@ -92,11 +102,11 @@ class StallMeter:
         """Count one control period, after it set the commands (``fleet.v_cmd_mps``; positions
         and headings ``fleet.last_z_m``, ``last_th_rad``); ``holding``: (m,) robots holding in
         a site's queue."""
-        if len(fleet.state) <= SMALL_MAX:
+        if len(fleet.state) <= self.small_max:
             return self._sample_small(fleet, holding)
         drive = fleet.state == DRIVING
         n = int(np.count_nonzero(drive))
-        still = drive & (np.abs(fleet.v_cmd_mps) < STILL_MPS)
+        still = drive & (np.abs(fleet.v_cmd_mps) < self.still_mps)
         rows = still.nonzero()[0]
         runs = self._stands(rows, fleet.task)
         if not n:
@@ -104,8 +114,8 @@ class StallMeter:
         self.driving += n
         if not len(rows):
             return
-        other, dist = nearest_other(fleet.last_z_m, rows)
-        near = dist < NEAR_M
+        other, dist = nearest_other(fleet.last_z_m, rows, self.near_m)
+        near = dist < self.near_m
         other = np.where(near, other, 0)
         th = fleet.last_th_rad
         cos = np.cos(th[other] - th[rows])
@@ -143,7 +153,7 @@ class StallMeter:
         for j, (sj, vj) in enumerate(zip(state, v, strict=True)):
             if sj == DRIVING:
                 n += 1
-                if abs(vj) < STILL_MPS:
+                if abs(vj) < self.still_mps:
                     rows.append(j)
         m, task = len(state), fleet.task.tolist()
         if len(self.run) != m:
@@ -170,7 +180,7 @@ class StallMeter:
                     d = abs(zi - zj)
                     if d < best:
                         best, k = d, i
-            if best >= NEAR_M:
+            if best >= self.near_m:
                 cause = _NONE
             elif state[k] == WORKING:
                 cause = _WORK
@@ -208,7 +218,7 @@ class StallMeter:
     def summary(self) -> dict[str, float]:
         """``still_s_<cause>`` (robot-seconds standing still while driving, by cause),
         ``driving_s`` (robot-seconds driving), ``still_share`` (standing over driving) and
-        ``still_long_s_<cause>`` (of the standing, what came after ``LONG_S`` of a stand)."""
+        ``still_long_s_<cause>`` (of the standing, what came after ``long_s`` of a stand)."""
         still = self.still.tolist()
         out = {f"still_s_{c}": k * self.period_s for c, k in zip(CAUSES, still, strict=True)}
         out["driving_s"] = float(self.driving * self.period_s)
@@ -261,10 +271,12 @@ class StallMeter:
         self.run, self.run_task = run.copy(), run_task.copy()
 
 
-def nearest_other(z: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def nearest_other(
+    z: np.ndarray, rows: np.ndarray, near_m: float = 1.2
+) -> tuple[np.ndarray, np.ndarray]:
     """For each robot ``rows``, the nearest other robot and its centre distance; of robots at
     the same distance the lowest index, as ``argmin`` over all of them (robots on a start
-    grid are). In a large team the ``TREE_K`` nearest within ``NEAR_M`` are looked at (a k-d
+    grid are). In a large team the ``TREE_K`` nearest within ``near_m`` are looked at (a k-d
     tree): inf, and index 0, when none is that near."""
     m = len(z)
     if m < 2:
@@ -277,7 +289,7 @@ def nearest_other(z: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarr
     xy = np.column_stack([z.real, z.imag])
     tree = cKDTree(xy, balanced_tree=False, compact_nodes=False)  # quicker to build
     k = min(TREE_K, m)
-    dist, idx = tree.query(xy[rows], k=k, distance_upper_bound=NEAR_M)
+    dist, idx = tree.query(xy[rows], k=k, distance_upper_bound=near_m)
     dist = np.where(idx == rows[:, None], np.inf, dist)  # not itself
     best = dist.min(axis=1)
     tied = dist == best[:, None]

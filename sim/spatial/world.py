@@ -65,6 +65,7 @@ from sim.spatial.control import CONTROLS, ControlParts, control_kind
 from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import Clock, FleetState, Schedule
 from sim.spatial.jobs import Jobs
+from sim.spatial.law.orca import OrcaLaw
 from sim.spatial.motors import Motors
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
@@ -94,6 +95,8 @@ class PymunkWorld:
         check_layout: refuse a layout a scenario file could not hold (robots on each other or
             in a wall, a site no robot can reach: ``sim.spatial.layout``). Tests of states a
             run can reach but not start from (robots touching, a task out of reach) pass False.
+        gc_robots: a full garbage collection frees the spaces dropped at set boundaries once
+            they held this many robots in all (see ``GC_ROBOTS``).
 
     Attributes:
         planner: the :class:`GridPlanner` the distance and time cost models bid with.
@@ -113,6 +116,7 @@ class PymunkWorld:
         *,
         control: str = "auto",
         check_layout: bool = True,
+        gc_robots: int = GC_ROBOTS,
     ) -> None:
         if scenario.spatial is None:
             raise ValueError(f"scenario {scenario.name!r} has no [spatial] table")
@@ -125,7 +129,7 @@ class PymunkWorld:
         self.control_kind = control_kind(control, scenario.n_robots)
         self.dt_s = sp.dt_s
         self.substeps = max(1, round(1.0 / (sp.control_hz * sp.dt_s)))
-        self.controller = DiffDriveController(sp.drive, self.substeps * sp.dt_s)
+        self.controller = DiffDriveController(sp.drive, self.substeps * sp.dt_s, law=sp.law)
         self.exec_time_s_ = np.asarray(scenario.exec_time_s, dtype=float)
         self.starts_ = np.array([r.start_xy for r in scenario.robots], dtype=float)
         self.headings_ = np.radians([r.heading_deg for r in scenario.robots])
@@ -133,6 +137,7 @@ class PymunkWorld:
         self.buffers_ = (pb.Buffer(), pb.Buffer())  # batch I/O of motors and contacts, reused
         self.faults = build_faults(scenario)
         self.dropped_robots_ = 0  # robots in the spaces dropped since the last collection
+        self.gc_robots = gc_robots
         self.reset(np.random.default_rng(0))
 
     def reset(self, rng: np.random.Generator) -> None:
@@ -158,8 +163,8 @@ class PymunkWorld:
             shape.friction, shape.collision_type = 0.3, WALL
             space.add(shape)
         self.motors = Motors(space, drive, self.starts_, ROBOT, self.headings_, self.buffers_[0])
-        self.contacts = ContactMonitor(space, ROBOT, WALL, self.buffers_[1])
-        self.stalls = StallMeter(self.substeps * self.dt_s, sp.width_m, sp.height_m, m)
+        self.contacts = ContactMonitor(space, ROBOT, WALL, self.buffers_[1], sp.contacts)
+        self.stalls = StallMeter(self.substeps * self.dt_s, sp.width_m, sp.height_m, m, sp.stalls)
         self.space = space
         self.clock = Clock(self.dt_s)
         self.goal_s_, self.last_ctrl_step_ = 0.0, -1
@@ -170,7 +175,9 @@ class PymunkWorld:
         v_max = drive.max_wheel_speed_radps * drive.wheel_radius_m
         kind = CONTROLS[self.control_kind]
         obstacles = [*sp.obstacles, *walls]
-        self.follower = PathFollower(m, v_max, obstacles, drive.radius_m, kind.free_cap_m)
+        self.follower = PathFollower(
+            m, v_max, obstacles, drive.radius_m, kind.free_cap_m, follow=sp.follow
+        )
         self.jobs = Jobs(
             fleet=self.fleet,
             schedule=self.schedule,
@@ -184,7 +191,7 @@ class PymunkWorld:
             bodies=self.motors.bodies,
             rng=rng,
             keep_lists=kind.keeps_lists,
-            clear_sites=sp.avoidance == "orca",
+            avoid=sp.avoid,
         )
         parts = ControlParts(
             self.fleet,
@@ -195,7 +202,8 @@ class PymunkWorld:
             self.controller,
             sp.arrive_tol_m,
             self.reach_m_,
-            sp.avoidance == "orca",
+            sp.avoid,
+            OrcaLaw.of(sp.orca, sp.law),
         )
         self.control = kind(parts)
 
@@ -351,7 +359,7 @@ class PymunkWorld:
             self.jobs.refresh()
         self.restore_arrays(self.state_arrays())
         self.dropped_robots_ += self.scenario.n_robots
-        if self.dropped_robots_ >= GC_ROBOTS:  # free the dropped spaces (see GC_ROBOTS)
+        if self.dropped_robots_ >= self.gc_robots:  # free the dropped spaces (see GC_ROBOTS)
             gc.collect()
             self.dropped_robots_ = 0
 
@@ -437,7 +445,7 @@ class PymunkWorld:
 
     def summary(self, record=None) -> dict:
         """JSON-able physics statistics of the run so far: contacts begun robot-robot and
-        robot-wall, each a touch (closing speed below ``sim.spatial.contacts.IMPACT_MPS``) or an
+        robot-wall, each a touch (closing speed below ``[spatial.contacts] impact_mps``) or an
         impact, also per robot-hour (robots x simulated hours); where driving robots stood still and
         why (``sim.spatial.stalls``)."""
         c = self.contacts
@@ -475,7 +483,7 @@ class PymunkWorld:
                 self.recorder.poses(t, xy, f.last_th_rad, shown)
             return
         self.control.period(t)
-        if self.jobs.clear_sites:
+        if self.jobs.avoid:
             if self.spatial.look_ahead == "on":
                 self.jobs.jams.look_ahead(t)
             near = self.jobs.jams.standing_near(t)

@@ -10,9 +10,13 @@ import numpy as np
 import pytest
 
 from scenarios.loader import ScenarioError, load_scenario, parse_scenario
-from sim.spatial.law.orca import MARGIN_M
+from sim.scenario import OrcaSpec
 from sim.spatial.world import PymunkWorld
 from sim.tasks import Batch
+
+# the settings' defaults (sim.scenario), under the names these tests use
+MARGIN_M = OrcaSpec().margin_m
+
 
 SPATIAL = ["paper_spatial", "warehouse", "warehouse_wide", "warehouse_pickface", "large"]
 

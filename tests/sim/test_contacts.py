@@ -13,7 +13,14 @@ import numpy as np
 import pymunk
 import pytest
 
-from sim.spatial.contacts import CONTACT_ITERATIONS, FREE_ITERATIONS, IMPACT_MPS, ContactMonitor
+from sim.scenario import ContactSpec
+from sim.spatial.contacts import ContactMonitor
+
+# the settings' defaults (sim.scenario), under the names these tests use
+CONTACT_ITERATIONS = ContactSpec().iterations
+FREE_ITERATIONS = ContactSpec().free_iterations
+IMPACT_MPS = ContactSpec().impact_mps
+
 
 ROBOT, WALL = 1, 2
 R = 0.25

@@ -74,7 +74,7 @@ def one_period(world: PymunkWorld, kind) -> tuple[FleetState, Jobs]:
         bodies=world.motors.bodies,
         rng=copy.deepcopy(world.jobs.rng),
         keep_lists=True,
-        clear_sites=world.jobs.clear_sites,
+        avoid=world.jobs.avoid,
     )
     jobs.restore_arrays(copy.deepcopy(world.jobs.state_arrays()))  # site queues and slots too
     jobs.jams.around_s = world.jobs.jams.around_s.copy()
@@ -88,7 +88,7 @@ def one_period(world: PymunkWorld, kind) -> tuple[FleetState, Jobs]:
         world.controller,
         world.spatial.arrive_tol_m,
         world.reach_m_,
-        world.jobs.clear_sites,
+        world.jobs.avoid,
     )
     kind(parts).period(world.time_s)
     return fleet, jobs
@@ -158,12 +158,17 @@ def test_shared_formulas_give_the_same_numbers_on_floats_and_arrays():
     cases = [
         (law.steer_speeds, (a, pos, pos), (3.0, -1.5, 1.2, math.sqrt), (3.0, -1.5, 1.2, np.sqrt)),
         (law.stopping_time_s, (a,), (0.1, 0.4), (0.1, 0.4)),
-        (law.approach_cap_mps, (pos, pos), (3.0, 0.2, 0.04, math.sqrt), (3.0, 0.2, 0.04, np.sqrt)),
+        (
+            law.approach_cap_mps,
+            (pos, pos),
+            (3.0, 0.2, 0.04, math.sqrt, 0.15),
+            (3.0, 0.2, 0.04, np.sqrt, 0.15),
+        ),
         (law.pair_share_m, (a, b, c), (), ()),
         (law.rim_speed_mps, (a, b), (), ()),
         (law.twist_from_rims, (a, b, c, d), (), ()),
         (law.on_arc, (a, b * 1e-4), (), ()),
-        (law.goes_our_way, (a, b), (math.cos,), (np.cos,)),
+        (law.goes_our_way, (a, b), (math.cos, 0.5), (np.cos, 0.5)),
     ]
     for fn, arrays, float_consts, array_consts in cases:
         rows = zip(*(x.tolist() for x in arrays), strict=True)
@@ -188,14 +193,15 @@ def test_the_law_s_formulas_give_the_numbers_worked_by_hand():
     tiny = law.preferred_velocity(1e-13 + 0j, 1e-13, 0.0, 1.0, 1.5, math.sqrt, min)
     assert tiny.real >= 0.0  # at its aim point a robot never prefers to move away from it
     assert law.stopping_time_s(-0.8, 0.1, 0.25) == pytest.approx(0.3, abs=1e-15)
-    cap, creep = law.approach_cap_mps(0.5, 0.5, 3.0, 0.2, 0.04, math.sqrt)
+    cap, creep = law.approach_cap_mps(0.5, 0.5, 3.0, 0.2, 0.04, math.sqrt, 0.15)
     assert cap == pytest.approx(math.sqrt(3.04) - 0.2, abs=1e-15) and creep == pytest.approx(0.3)
     assert law.pair_share_m(2.0, 0.5, 0.3) == (1.5, 0.9)
     assert law.rim_speed_mps(-0.4, 0.3) == pytest.approx(0.7, abs=1e-15)
     assert law.twist_from_rims(0.2, -0.1, 1.0, 0.5) == pytest.approx((1.05, 0.65), abs=1e-15)
     assert not law.on_arc(1.0, 1e-4) and law.on_arc(0.99, 1e-4)  # radius 1e4 m is straight
     # within 60 degrees of our heading goes our way; the difference counts, not the sum
-    assert law.goes_our_way(1.0, 0.5, math.cos) and not law.goes_our_way(1.0, -0.5, math.cos)
+    assert law.goes_our_way(1.0, 0.5, math.cos, 0.5)
+    assert not law.goes_our_way(1.0, -0.5, math.cos, 0.5)
 
 
 def test_control_body_sits_at_the_centre_of_the_arc():
@@ -216,12 +222,12 @@ def test_control_body_sits_at_the_centre_of_the_arc():
 
 def test_under_avoidance_a_fast_turn_that_must_slow_takes_the_wheels_first():
     """DiffDriveController.limit with ``turn_first``: a robot turning faster than
-    TURN_FIRST_RADPS that is told to stop turning while speeding up slows its turn by the full
+    ``turn_first_radps`` that is told to stop turning while speeding up slows its turn by the full
     rim step and keeps its speed; a slower turn, a turn that grows, a robot ORCA steers, or the
     law without avoidance share the step between the wheels as before."""
     c = PymunkWorld(crowd()).controller
     s, hb = c.rim_step_mps, c.half_base_m
-    q_fast, q_slow = 2.5 * hb, 0.99 * law.TURN_FIRST_RADPS * hb
+    q_fast, q_slow = 2.5 * hb, 0.99 * c.turn_first_radps * hb
     v0 = np.array([0.5, 0.5, 0.5, 0.5])
     q0 = np.array([q_fast, q_slow, q_fast, q_fast])
     want_v = np.full(4, 1.0)

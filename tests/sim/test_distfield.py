@@ -273,7 +273,7 @@ def _field_against_planner(planner, field, pos):
 
 
 @pytest.mark.parametrize("arena", ["obstacles", "clutter"])
-def test_candidate_lists_filed_by_key_and_digested_in_several_passes(arena, monkeypatch):
+def test_candidate_lists_filed_by_key_and_digested_in_several_passes(arena):
     """With room for only two lists of their own in the table (the rest found by key) and
     digests of seven pairs a pass, the field gives the same distances as the planner, bit for
     bit the same as with the defaults."""
@@ -283,9 +283,7 @@ def test_candidate_lists_filed_by_key_and_digested_in_several_passes(arena, monk
     pos = rng.uniform(0.0, 20.0, size=(500, 2))
     default = DistanceField.build(planner, sites)
     want = default.distances(pos, default.columns(sites))
-    monkeypatch.setattr(DistanceField, "max_groups", 2)
-    monkeypatch.setattr(DistanceField, "pairs_per_pass", 7)
-    field = DistanceField.build(planner, sites)
+    field = DistanceField.build(planner, sites, max_groups=2, pairs_per_pass=7)
     assert len(field.group_start_) == 3 and field.mixed_key_.size > 100  # lists by key
     assert (np.diff(field.mixed_key_) > 0).all()  # sorted, one row per pair
     got = _field_against_planner(planner, field, pos)
@@ -296,8 +294,7 @@ def test_candidate_lists_filed_by_key_and_digested_in_several_passes(arena, monk
                         ("group_start_", np.int32), ("entry_anchor_", np.int16)]:  # fmt: skip
         assert getattr(field, name).dtype == dtype, name  # the field's size (nbytes)
     pairs = int((default.table_ >= default.mixed_code_).sum())  # undecided (cell, site) pairs
-    monkeypatch.setattr(DistanceField, "pairs_per_pass", pairs)  # one pass, exactly full
-    field = DistanceField.build(planner, sites)
+    field = DistanceField.build(planner, sites, pairs_per_pass=pairs)  # one pass, exactly full
     assert np.array_equal(field.distances(pos, field.columns(sites)), want)
 
 

@@ -14,9 +14,13 @@ import math
 import numpy as np
 import pytest
 
-from sim.scenario import DriveSpec
+from sim.scenario import DriveSpec, LawSpec
 from sim.spatial.controller import VERLET_SKIN_M, DiffDriveController
-from sim.spatial.law.drive import HEADING_GAIN, KEEP_RIGHT_GAIN
+
+# the settings' defaults (sim.scenario), under the names these tests use
+HEADING_GAIN = LawSpec().heading_gain
+KEEP_RIGHT_GAIN = LawSpec().keep_right_gain
+
 
 EXACT = {"rel": 1e-12, "abs": 1e-12}
 

@@ -11,11 +11,15 @@ import pytest
 
 from scenarios.loader import parse_scenario, read_toml, resolve
 from sim.faults import FAULT_SPAWN_KEY, FaultModel, build_faults, fault_seed_sequence
-from sim.scenario import DriveSpec, FaultSpec, RobotSpec, Scenario, SpatialSpec
+from sim.scenario import DriveSpec, FaultSpec, RecoverySpec, RobotSpec, Scenario, SpatialSpec
 from sim.spatial.world import PymunkWorld
 from sim.states import DRIVING, IDLE
 from sim.tasks import Batch
 from sim.world import AbstractWorld
+
+# the settings' defaults (sim.scenario), under the names these tests use
+REPAIR_WAIT_S = RecoverySpec().repair_wait_s
+
 
 Z3 = 3.0  # three standard errors: a correct model fails such a check about once in 370 seeds
 
@@ -265,7 +269,6 @@ def test_a_way_only_a_broken_robot_blocks_waits_for_the_repair_then_the_task_is_
 def test_a_robot_lost_for_good_in_the_way_fails_the_task_with_why_after_the_wait():
     """Lost for good (no repair in sight), the task fails when its deadline, moved on by
     ``REPAIR_WAIT_S``, passes, with the reason: one failure, not a stuck robot."""
-    from sim.spatial.jobs import REPAIR_WAIT_S
 
     world = _door_world(1e9)
     deadline = float(world.fleet.deadline_s[1])

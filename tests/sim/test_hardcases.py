@@ -88,21 +88,19 @@ def test_cli_says_when_not_all_arrived(capsys):
     assert "not all arrived within 5 s: 2 still driving" in line
 
 
-def test_the_corridor_jam_is_broken_at_pass_s_not_at_the_stuck_timeout(monkeypatch):
+def test_the_corridor_jam_is_broken_at_pass_s_not_at_the_stuck_timeout():
     """Two robots meet head-on in the 0.75 m corridor: with the jam rule (``Jams.break_jams``)
-    one backs out 2 s after they stop; with it off (``PASS_S`` out of reach) only after the
+    one backs out 2 s after they stop; with it off (``pass_s`` out of reach) only after the
     20 s stuck timeout. Both finish without a contact; the rule saves the wait, less the 2 s
     and a margin of 2 s for the turns."""
     import dataclasses
 
-    import sim.spatial.jams
-    from sim.scenario import SpatialSpec
+    from sim.scenario import JamSpec, SpatialSpec
 
     stuck_s = {f.name: f.default for f in dataclasses.fields(SpatialSpec)}["stuck_timeout_s"]
-    pass_s = sim.spatial.jams.PASS_S
+    pass_s = JamSpec().pass_s
     on = run_case("corridor")
-    monkeypatch.setattr(sim.spatial.jams, "PASS_S", 1e9)
-    off = run_case("corridor")
+    off = run_case("corridor", settings={"jams": JamSpec(pass_s=3600.0)})
     for out in (on, off):
         assert out["failed"] == 0 and out["still_driving"] == 0
         assert out["robot_touch"] + out["robot_impact"] == 0

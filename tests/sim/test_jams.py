@@ -12,9 +12,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.spatial.jams import AROUND_M, DEADLOCK_M, PASS_S
+from sim.scenario import JamSpec
 from sim.states import DRIVING, IDLE, WORKING
 from tests.sim.test_jobs import AISLE, GAP, at, give, lane, orca_world, waypoints
+
+# the settings' defaults (sim.scenario), under the names these tests use
+AROUND_M = JamSpec().around_m
+DEADLOCK_M = JamSpec().deadlock_m
+PASS_S = JamSpec().pass_s
+AHEAD_GROW_M = JamSpec().ahead_grow_m
+PASS_EXTRA_M = JamSpec().pass_extra_m
+
 
 V_MAX = 1.5  # m/s
 
@@ -92,7 +100,6 @@ def ahead_scene(obstacles, wait_s: float = 1000.0, idle: bool = False):
 def extra_s(w, j: int, work) -> float:
     """How much longer robot j's way round the robots ``work`` (grown by AHEAD_GROW_M) is
     than its way, at top speed, s."""
-    from sim.spatial.jams import AHEAD_GROW_M
 
     z = w.fleet.last_z_m
     site = (w.fleet.site[j].real, w.fleet.site[j].imag)
@@ -243,7 +250,6 @@ def test_pass_workers_goes_round_only_if_the_extra_drive_is_quicker_than_the_wor
     longer (about 2.3 s): robot 0 takes it when robot 1 has 0.05 s more than that to work,
     and waits when it has 0.05 s less. (At the default 1.5 m/s, PASS_EXTRA_M already keeps
     the extra drive within PASS_S.)"""
-    from sim.spatial.jams import PASS_EXTRA_M
 
     v = 0.9
     w = slow_world([(9.2, 5.0), (10.0, 5.0)], TWO_GAPS, v)

@@ -13,14 +13,29 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
-from sim.spatial.jams import DEADLOCK_M
-from sim.spatial.jobs import BACKOFF_S, Jobs
-from sim.spatial.sites import SLOT_GAP_M, YIELD_TIMEOUT_S
+from sim.scenario import (
+    DriveSpec,
+    JamSpec,
+    MakeWaySpec,
+    QueueSpec,
+    RecoverySpec,
+    RobotSpec,
+    Scenario,
+    SpatialSpec,
+)
+from sim.spatial.jobs import Jobs
 from sim.spatial.world import PymunkWorld
 from sim.states import DRIVING, IDLE, WORKING
 from sim.tasks import Batch
 from sim.world import Completion
+
+# the settings' defaults (sim.scenario), under the names these tests use
+DEADLOCK_M = JamSpec().deadlock_m
+BACKOFF_S = RecoverySpec().backoff_s
+SLOT_GAP_M = QueueSpec().slot_gap_m
+YIELD_TIMEOUT_S = MakeWaySpec().timeout_s
+PASS_S = JamSpec().pass_s
+
 
 EXEC_S = (2.0, 5.0)  # execution time of task types 0 and 1, s
 V_MAX = 1.5  # m/s, the default drive's top speed
@@ -626,7 +641,7 @@ def test_robot_with_no_free_side_step_stays_and_one_asked_twice_moves_once():
 
 def orca_world(starts, **kw) -> PymunkWorld:
     w = make_world(starts, avoidance="orca", **kw)
-    assert w.jobs.clear_sites is True
+    assert w.jobs.avoid is True
     return w
 
 
@@ -1033,7 +1048,7 @@ def test_every_newcomer_in_one_call_is_answered():
     assert f.site[2] == slot(16 + 8j, 3)
 
 
-def test_jobs_built_without_avoidance_never_clear_sites_and_track_slots_as_flags():
+def test_jobs_built_without_avoidance_never_queue_at_sites_and_track_slots_as_flags():
     w = make_world([(2.0, 5.0), (4.0, 5.0)])
     jobs = Jobs(
         fleet=w.fleet,
@@ -1049,7 +1064,7 @@ def test_jobs_built_without_avoidance_never_clear_sites_and_track_slots_as_flags
         rng=np.random.default_rng(0),
         keep_lists=True,
     )
-    assert jobs.clear_sites is False
+    assert jobs.avoid is False
     assert jobs.sites.slotted.dtype == bool and jobs.sites.slotted.tolist() == [False, False]
     assert (jobs.done, jobs.failures) == ([], 0)
 
@@ -1198,7 +1213,7 @@ def test_step_clear_skips_a_broken_robot_and_serves_the_next():
     assert w.follower.last[0] == -1 and len(waypoints(w, 1)) == 2
 
 
-def _gap_world(second_gap_y: float, look_ahead: str = "off"):
+def _gap_world(second_gap_y: float, look_ahead: str = "off", pass_s: float = JamSpec().pass_s):
     """A wall across a 12 x 8 m arena at x = 6 with a 1.4 m gap at y = 3, where a robot works
     (1000 s), and a second gap centred at ``second_gap_y``; robot 0 drives from (3, 3) to
     (9, 3), straight through the first gap (the planner ignores robots; ``[spatial]
@@ -1208,7 +1223,17 @@ def _gap_world(second_gap_y: float, look_ahead: str = "off"):
     lo, hi = second_gap_y - 0.7, second_gap_y + 0.7
     walls = [((5.9, a), (6.1, a), (6.1, b), (5.9, b)) for a, b in [(0, 2.3), (3.7, lo), (hi, 8)]]
     starts, goals = [(3.0, 3.0), (6.0, 3.0)], [(9.0, 3.0), (6.0, 3.0)]
-    return swap_world(starts, goals, (12.0, 8.0), "auto", "orca", walls, look_ahead=look_ahead)
+    jams = JamSpec(pass_s=pass_s)
+    return swap_world(
+        starts,
+        goals,
+        (12.0, 8.0),
+        "auto",
+        "orca",
+        walls,
+        look_ahead=look_ahead,
+        settings={"jams": jams},
+    )
 
 
 def _arrive(world) -> tuple[float, float]:
@@ -1224,46 +1249,39 @@ def _arrive(world) -> tuple[float, float]:
     return t, top[0]
 
 
-def test_a_robot_beside_one_at_work_at_another_site_goes_round_it_without_a_try(monkeypatch):
+def test_a_robot_beside_one_at_work_at_another_site_goes_round_it_without_a_try():
     """The worker fills the gap (0.45 m either side, a robot needs 0.7): robot 0 stands
-    beside it, and ``PASS_S`` later (not the stuck timeout) takes the way through the other
+    beside it, and ``pass_s`` later (not the stuck timeout) takes the way through the other
     gap, 2.3 m longer, without spending a recovery try; with the rule off it waits for the
     stuck timeout and then goes round, spending one. Where the only way round is more than
-    ``PASS_EXTRA_M`` longer the rule leaves every robot exactly as it was."""
-    import sim.spatial.jams
-
-    pass_s = sim.spatial.jams.PASS_S
+    ``pass_extra_m`` longer the rule leaves every robot exactly as it was."""
     runs = {}
     for rule in (True, False):
-        monkeypatch.setattr(sim.spatial.jams, "PASS_S", pass_s if rule else 1e9)
         for gap_y in (5.0, 6.9):
-            world = _gap_world(gap_y)
+            world = _gap_world(gap_y, pass_s=PASS_S if rule else 3600.0)
             runs[rule, gap_y] = world, *_arrive(world)
     (on, t_on, top_on), (off, t_off, top_off) = runs[True, 5.0], runs[False, 5.0]
     assert top_on > 4.3 and top_off > 4.3  # both through the second gap in the end
     assert on.fleet.recoveries[0] == 0 and off.fleet.recoveries[0] == 1
     stuck_s = on.spatial.stuck_timeout_s
-    assert t_off - t_on > stuck_s - pass_s - 2.0  # the wait it saves, less the turns
+    assert t_off - t_on > stuck_s - PASS_S - 2.0  # the wait it saves, less the turns
     (far, t_far, _), (far_off, t_far_off, _) = runs[True, 6.9], runs[False, 6.9]
     assert np.isfinite(t_far) and t_far == t_far_off
     assert np.array_equal(far.fleet.last_z_m, far_off.fleet.last_z_m)
     assert far.fleet.recoveries.tolist() == far_off.fleet.recoveries.tolist() == [1, 0]
 
 
-def test_going_round_skips_a_robot_at_work_for_the_same_site(monkeypatch):
+def test_going_round_skips_a_robot_at_work_for_the_same_site():
     """The rule leaves a robot alone whose neighbour at work works for the robot's own site
     (the site's queue and slots decide who goes where), and re-plans it, through the second
     gap, when that robot works for another site: the same moment, called directly."""
-    import sim.spatial.jams
-
-    monkeypatch.setattr(sim.spatial.jams, "PASS_S", 1e9)  # the rule off while the robot comes up
-    world = _gap_world(5.0)
+    world = _gap_world(5.0, pass_s=3600.0)  # the rule off while the robot comes up
     while world.time_s < 10.0:
         world.advance(0.1)
     f, jobs, t = world.fleet, world.jobs, world.time_s
     assert f.state[0] == DRIVING and f.state[1] == WORKING
     assert abs(f.v_cmd_mps[0]) < 0.1 and t - f.t_progress_s[0] >= 2.0
-    monkeypatch.setattr(sim.spatial.jams, "PASS_S", 2.0)
+    jobs.jams.rules = JamSpec(pass_s=2.0)  # the rule on from now
     before, clock = waypoints(world, 0).copy(), f.t_progress_s[0]
     own = jobs.sites.service[0]
     jobs.sites.service[0] = jobs.sites.service[1]  # as if both worked for one site
@@ -1328,7 +1346,6 @@ def test_a_jam_in_a_gap_is_acted_on_after_pass_s_not_the_stuck_timeout():
     """Head-on in the gap, both standing 2 s: robot 1 (the higher index, its way back free)
     backs out past where it was given its task and robot 0 waits for it, without waiting for
     the 20 s stuck timeout. Before ``PASS_S`` nothing happens."""
-    from sim.spatial.jams import PASS_S
 
     w, t = _head_on(GAP, 20.0 + PASS_S - 0.1)
     w.jobs.jams.break_jams(t)
@@ -1350,7 +1367,6 @@ def test_on_open_floor_only_a_pair_standing_alone_is_a_jam():
     if that one stands too and no third driving robot is within ``DEADLOCK_M`` (a standoff
     of two); beside a moving one, or in a crowd, it is left to ORCA and the stuck timeout.
     In a single-lane gap it acts in the crowd too."""
-    from sim.spatial.jams import PASS_S
 
     for floor in ((), AISLE):
         w, t = _head_on(floor, 20.0 + PASS_S)
@@ -1378,7 +1394,6 @@ def test_on_open_floor_only_a_pair_standing_alone_is_a_jam():
 
 
 def test_break_jams_leaves_a_robot_alone_beside_one_at_work_holding_or_backing_off():
-    from sim.spatial.jams import PASS_S
 
     for change in ("working", "holding", "backoff", "moving"):
         w, t = _head_on(GAP, 20.0 + PASS_S)
@@ -1416,7 +1431,6 @@ def test_a_robot_plans_round_one_at_work_in_its_way_before_it_gets_there():
     with ``[spatial] look_ahead = "off"`` (the default: it drives up, stands ``PASS_S``
     beside the robot at work and goes round, ``pass_workers``), whose way is still the
     straight one then."""
-    import sim.spatial.jams
 
     off = _gap_world(5.0)
     while off.fleet.state[1] != WORKING:
@@ -1431,7 +1445,7 @@ def test_a_robot_plans_round_one_at_work_in_its_way_before_it_gets_there():
     t_on, top_on = _arrive(world)
     t_off, top_off = _arrive(off)
     assert top_on > 4.3 and top_off > 4.3
-    assert np.isfinite(t_on) and t_on < t_off - sim.spatial.jams.PASS_S
+    assert np.isfinite(t_on) and t_on < t_off - PASS_S
 
 
 def test_looking_ahead_keeps_the_way_when_waiting_is_quicker_or_the_site_is_shared():
@@ -1441,9 +1455,8 @@ def test_looking_ahead_keeps_the_way_when_waiting_is_quicker_or_the_site_is_shar
     when the way round takes 0.1 s longer at top speed than the wait, and when robot 1 works
     for robot 0's own site (the site's queue and slots decide); with the wait 0.1 s longer
     than the way round it goes round. Called directly, at one moment."""
-    import sim.spatial.jams
 
-    wait_s = sim.spatial.jams.AHEAD_WAIT_S
+    wait_s = JamSpec().ahead_wait_s
     world = _gap_world(6.9)  # look_ahead "off": only the direct calls below look
     f, jobs = world.fleet, world.jobs
     while f.state[1] != WORKING:
@@ -1460,7 +1473,7 @@ def test_looking_ahead_keeps_the_way_when_waiting_is_quicker_or_the_site_is_shar
         f.last_z_m[0] = complex(x, 3.0)
         assert (jobs.jams.waits(np.array([0]), np.array([1]), t)[0][0, 0] > 0) == waits
     f.last_z_m[0] = z0  # beside it already (within AHEAD_BLOCK_M along its way): pass_workers
-    grown = world.controller.radius_m + sim.spatial.jams.AHEAD_GROW_M
+    grown = world.controller.radius_m + JamSpec().ahead_grow_m
     z = f.last_z_m
     way = world.planner.path_around((z[0].real, z[0].imag), (9.0, 3.0), z[[1]], grown)
     extra_s = float(np.abs(np.diff(way[:, 0] + 1j * way[:, 1])).sum()) - jobs.jams.way_left_m(0)

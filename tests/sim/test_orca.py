@@ -14,7 +14,15 @@ import numpy as np
 import pytest
 
 from scenarios.experiments.hardcases import circle, swap_world, time_to_all_arrive
+from sim.scenario import OrcaSpec
 from sim.spatial.law.orca import forward_speed, half_planes, solve
+
+# the settings' defaults (sim.scenario), under the names these tests use
+SLACK_SHALLOW = OrcaSpec().slack_shallow
+MARGIN_M = OrcaSpec().margin_m
+TAU_OBSTACLE_S = OrcaSpec().tau_obstacle_s
+WALL_GAP_M = OrcaSpec().wall_gap_m
+WALL_SLACK_MPS = OrcaSpec().wall_slack_mps
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])
@@ -127,7 +135,6 @@ def test_forward_speed_keeps_the_driven_velocity_in_every_half_plane():
     """Exactly without slack; with ``slack``, a line the heading runs nearly along (``|n . h|``
     below ``SLACK_SHALLOW``) may be closed on at that speed and no faster; a line it crosses
     more steeply, not at all."""
-    from sim.spatial.law.orca import SLACK_SHALLOW
 
     normal = np.array([[-1.0 + 0j, 1j]])  # u.x <= 0.4, u.y >= -0.2
     offset = np.array([[-0.4, -0.2]])
@@ -161,39 +168,40 @@ def test_the_robot_program_never_backs_a_robot_up():
     assert forward_speed(*ahead, np.array([1.0 + 0j]), np.array([1.0]), 1.5)[0] == 0.0
 
 
-def test_a_robot_frozen_on_a_line_is_released_by_the_slack(monkeypatch):
+def test_a_robot_frozen_on_a_line_is_released_by_the_slack():
     """The freeze seen in the warehouse (market, seed 6, robot 4 stood 24 s by a shelf until
     its task failed): a robot exactly on the line of a wall above it (offset 0), heading west
     2e-4 rad into the wall, preferring west and a little into the wall, takes u along the
     wall. Held exactly (both slacks 0) the forward program gives it no speed, and its turn,
     proportional to 2e-4 rad, never brings the heading across. With the slacks (the law's
-    defaults) it drives along the wall (the wall program, ``WALL_SLACK_MPS``) and along a
-    robot's line (the robot program, ``ROBOT_SLACK_MPS``), each knob for its own lines."""
+    defaults) it drives along the wall (the wall program, ``wall_slack_mps``) and along a
+    robot's line (the robot program, ``robot_slack_mps``), each setting for its own lines."""
     from sim.spatial.law import orca
 
     radius = 0.25
-    on_line = radius + orca.MARGIN_M + orca.WALL_GAP_M
+    on_line = radius + MARGIN_M + WALL_GAP_M
+    law = orca.DEFAULT
     wall = lambda pts: np.full(len(pts), 1j * on_line)  # noqa: E731
     far = lambda pts: np.full(len(pts), np.inf + 0j)  # noqa: E731
     h = np.array([np.exp(1j * (np.pi - 2e-4))])  # west, a hair north (into the line)
     pref, rows, z = np.array([-1.5 + 0.5j]), np.array([0]), np.array([0j])
 
-    def walls():
-        out = orca.steer_walls(z, h, rows, np.array([1.0]), pref, radius, 1.5, wall)
+    def walls(p):
+        out = orca.steer_walls(z, h, rows, np.array([1.0]), pref, radius, 1.5, wall, p=p)
         return out[1][0]
 
-    def robots():  # a robot line in place of the wall's, no obstacle near
+    def robots(p):  # a robot line in place of the wall's, no obstacle near
         n, c = np.array([[-1j]]), np.array([[0.0]])
-        return orca.steer_rows(z, h, rows, n, c, pref, radius, 1.5, far)[1][0]
+        return orca.steer_rows(z, h, rows, n, c, pref, radius, 1.5, far, p=p)[1][0]
 
-    assert orca.WALL_SLACK_MPS == orca.ROBOT_SLACK_MPS == 0.005
-    assert walls() == 1.0  # drives along the wall at its plan's speed
-    assert robots() > 1.0
-    monkeypatch.setattr(orca, "WALL_SLACK_MPS", 0.0)
-    assert walls() == 0.0  # frozen
-    assert robots() > 1.0
-    monkeypatch.setattr(orca, "ROBOT_SLACK_MPS", 0.0)
-    assert robots() == 0.0  # frozen
+    assert law.wall_slack_mps == law.robot_slack_mps == 0.005
+    assert walls(law) == 1.0  # drives along the wall at its plan's speed
+    assert robots(law) > 1.0
+    no_wall_slack = orca.OrcaLaw.of(OrcaSpec(wall_slack_mps=0.0))
+    assert walls(no_wall_slack) == 0.0  # frozen
+    assert robots(no_wall_slack) > 1.0
+    neither = orca.OrcaLaw.of(OrcaSpec(wall_slack_mps=0.0, robot_slack_mps=0.0))
+    assert robots(neither) == 0.0  # frozen
 
 
 @pytest.mark.parametrize("control", ["scalar", "array"])
@@ -281,7 +289,7 @@ def test_in_a_narrow_lane_orca_keeps_the_velocity_inside_the_free_width(monkeypa
     past = got[-1][0]
     orca.avoid(*args[:-1], far)
     assert past == got[-1][0]
-    bound = (0.06 - orca.LANE_AIR_M) / orca.TAU_OBSTACLE_S
+    bound = (0.06 - OrcaSpec().lane_air_m) / TAU_OBSTACLE_S
     assert -free.imag > bound  # without the lane ORCA steps right ...
     assert -laned.imag <= bound + 1e-9  # ... with it, no faster than the room allows
     assert wide == free
@@ -293,13 +301,7 @@ def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it(
     velocity in the half-plane, less ``WALL_SLACK_MPS`` (the wall program never backs) and it turns
     toward the velocity nearest its preferred one, along the wall, away from it. Heading along
     the wall at 0.5 m from it, nothing binds: None (its plan stays)."""
-    from sim.spatial.law.orca import (
-        MARGIN_M,
-        TAU_OBSTACLE_S,
-        WALL_GAP_M,
-        WALL_SLACK_MPS,
-        steer_walls,
-    )
+    from sim.spatial.law.orca import steer_walls
 
     radius, dist = 0.25, 0.32
     wall = lambda pts: np.full(len(pts), -1j * dist)  # noqa: E731  a wall below each robot
@@ -320,14 +322,12 @@ def test_walls_as_orca_lines_let_a_robot_slide_along_a_wall_but_not_close_on_it(
     assert steer_walls(np.array([0j]), flat, rows, np.array([1.0]), pref, radius, 1.5, far) is None
 
 
-def test_the_right_hand_bias_holds_only_where_the_body_has_room_to_the_nearest_obstacle(
-    monkeypatch,
-):
+def test_the_right_hand_bias_holds_only_where_the_body_has_room_to_the_nearest_obstacle():
     """A robot at the origin heading east whose one robot half-plane lets it no faster than
     0.2 m/s east (u.x <= 0.2) prefers 1 m/s east. By default the preference is turned
-    ``RIGHT_BIAS_DEG`` right however near an obstacle (one above it), so the velocity it takes
-    points right of its heading and it turns right. With ``BIAS_ROOM_M`` = 1 m (the variant
-    the README measures) only where the body has more room than that; with less it keeps its
+    ``right_bias_deg`` right however near an obstacle (one above it), so the velocity it takes
+    points right of its heading and it turns right. With ``bias_room_m`` = 1 m only where the
+    body has more room than that; with less it keeps its
     heading (the velocity nearest 1 m/s east is 0.2 m/s east). Both sides of the threshold."""
     from sim.spatial.law import orca
 
@@ -336,19 +336,19 @@ def test_the_right_hand_bias_holds_only_where_the_body_has_room_to_the_nearest_o
     rows, z, h = np.array([0]), np.array([0j]), np.array([1.0 + 0j])
     pref = np.array([1.0 + 0j])
 
-    def turn(room):
+    def turn(room, p=orca.DEFAULT):
         above = lambda pts: np.full(len(pts), 1j * (radius + room))  # noqa: E731
         if room == math.inf:  # what the path follower gives with no obstacle at all
             above = lambda pts: np.full(len(pts), np.inf + 0j)  # noqa: E731
-        out = orca.steer_rows(z, h, rows, normal, offset, pref, radius, 1.5, above)
+        out = orca.steer_rows(z, h, rows, normal, offset, pref, radius, 1.5, above, p=p)
         return out[2][0]
 
-    assert orca.BIAS_ROOM_M == -math.inf
+    assert orca.DEFAULT.bias_room_m == -math.inf  # bias_room_m = 0: no limit
     assert turn(0.05) < -0.1 and turn(3.0) < -0.1 and turn(math.inf) < -0.1
-    monkeypatch.setattr(orca, "BIAS_ROOM_M", 1.0)
-    assert turn(1.05) < -0.1  # room: turned right
-    assert turn(0.95) == 0.0  # beside an obstacle: straight on
-    assert turn(math.inf) < -0.1  # no obstacle at all
+    metre = orca.OrcaLaw.of(OrcaSpec(bias_room_m=1.0))
+    assert turn(1.05, metre) < -0.1  # room: turned right
+    assert turn(0.95, metre) == 0.0  # beside an obstacle: straight on
+    assert turn(math.inf, metre) < -0.1  # no obstacle at all
 
 
 def test_the_wall_program_never_backs_a_robot_up():
@@ -358,7 +358,7 @@ def test_the_wall_program_never_backs_a_robot_up():
     facing it at every angle from head-on to along it, planning 0.2 to 1.5 m/s: every speed
     the program sets is >= 0, and where the robot is inside the line (the line wants it to move
     away) it stops and turns away from the wall."""
-    from sim.spatial.law.orca import MARGIN_M, steer_walls
+    from sim.spatial.law.orca import steer_walls
 
     radius = 0.25
     dists = np.linspace(0.26, 0.6, 9)

@@ -8,31 +8,38 @@ hold them to it too.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
+from sim.scenario import LawSpec, OrcaSpec
 from sim.spatial.control import orca_small
 from sim.spatial.law import orca
-from sim.spatial.law.drive import COS_TURN, HEADING_GAIN
 from sim.spatial.law.orca import (
     _BIG,
-    BIAS_ROOM_M,
-    KEEP_RIGHT,
-    LANE_AIR_M,
-    LANE_NARROW_M,
-    LANE_NEAR_M,
-    MARGIN_M,
-    ROBOT_SLACK_MPS,
-    TAU_OBSTACLE_S,
-    TAU_S,
-    WALL_GAP_M,
-    WALL_SLACK_MPS,
+    DEFAULT,
     forward_speed,
     half_planes,
     neighbour_table,
     obstacle_plane,
     orca_range_m,
 )
+
+# the settings' defaults (sim.scenario), under the names these tests use
+COS_TURN = math.cos(LawSpec().turn_in_place_rad)
+HEADING_GAIN = LawSpec().heading_gain
+BIAS_ROOM_M = DEFAULT.bias_room_m
+KEEP_RIGHT = DEFAULT.keep_right
+LANE_AIR_M = OrcaSpec().lane_air_m
+LANE_NARROW_M = OrcaSpec().lane_narrow_m
+LANE_NEAR_M = OrcaSpec().lane_near_m
+MARGIN_M = OrcaSpec().margin_m
+ROBOT_SLACK_MPS = OrcaSpec().robot_slack_mps
+TAU_OBSTACLE_S = OrcaSpec().tau_obstacle_s
+TAU_S = OrcaSpec().tau_s
+WALL_GAP_M = OrcaSpec().wall_gap_m
+WALL_SLACK_MPS = OrcaSpec().wall_slack_mps
 
 
 def solve_reference(
@@ -341,30 +348,26 @@ def test_the_bench_times_avoidance_inside_the_loop():
     assert "replan_ms" not in off
 
 
-def test_the_small_team_path_reads_the_law_s_knobs_where_the_law_does(monkeypatch):
-    """``sim.spatial.law.orca``'s constants are the knobs the README's variants edit (one edit plus
-    a repo command). The small-team path must read them where the law does: with fewer
-    neighbours, a shorter horizon and a wider margin, ``avoid_small`` still gives ``avoid``'s
-    commands bit for bit, and those differ from the defaults' on some scenes (once the small
-    path kept its own copy of ``MAX_NEIGHBOURS``, and a knob edited in ``orca`` changed only
-    half the law)."""
+def test_the_small_team_path_reads_the_law_s_settings_where_the_law_does():
+    """``[spatial.orca]``'s settings reach both paths of the law. The small-team path must read
+    them where the law does: with fewer neighbours, a shorter horizon and a wider margin,
+    ``avoid_small`` still gives ``avoid``'s commands bit for bit, and those differ from the
+    defaults' on some scenes (a path that kept its own copy of ``max_neighbours`` would change
+    only half the law)."""
     rng = np.random.default_rng(29)
     scenes = [scene(rng, 10) for _ in range(120)]
 
-    def run_all():
+    def run_all(p):
         out = []
         for z, vel, h, rows, pref, v_want, steering, lanes in scenes:
             args = (z, vel, h, rows, pref, v_want, steering, 0.25, 1.0, 0.1, to_obstacle, lanes)
-            law = orca.avoid(*args)
-            assert same(orca_small.avoid_small(*args), law)
+            law = orca.avoid(*args, p=p)
+            assert same(orca_small.avoid_small(*args, p=p), law)
             out.append(law)
         return out
 
-    default = run_all()
-    monkeypatch.setattr(orca, "MAX_NEIGHBOURS", 3)
-    monkeypatch.setattr(orca, "TAU_S", 1.0)
-    monkeypatch.setattr(orca, "MARGIN_M", 0.08)
-    edited = run_all()
+    default = run_all(DEFAULT)
+    edited = run_all(orca.OrcaLaw.of(OrcaSpec(max_neighbours=3, tau_s=1.0, margin_m=0.08)))
     assert sum(not same(a, b) for a, b in zip(edited, default, strict=True)) > 10
 
 

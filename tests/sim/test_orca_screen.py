@@ -15,9 +15,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sim.scenario import OrcaSpec
 from sim.spatial.control import orca_small
 from sim.spatial.law import orca
-from sim.spatial.law.orca import MARGIN_M, MAX_NEIGHBOURS, TAU_S, half_planes, orca_range_m
+from sim.spatial.law.orca import half_planes, orca_range_m
+
+# the settings' defaults (sim.scenario), under the names these tests use
+MARGIN_M = OrcaSpec().margin_m
+MAX_NEIGHBOURS = OrcaSpec().max_neighbours
+TAU_S = OrcaSpec().tau_s
+
 
 RADIUS, V_MAX, DT = 0.25, 1.0, 0.1
 COMBINED = 2.0 * (RADIUS + MARGIN_M)

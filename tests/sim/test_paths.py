@@ -12,14 +12,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.spatial.navigation.paths import (
-    LOOKAHEAD_M,
-    SCALAR_FREE_MAX,
-    WAYPOINT_SWITCH_M,
-    PathFollower,
-    _to_segment,
-    _to_segments,
-)
+from sim.scenario import FollowSpec
+from sim.spatial.navigation.paths import SCALAR_FREE_MAX, PathFollower, _to_segment, _to_segments
+
+# the settings' defaults (sim.scenario), under the names these tests use
+LOOKAHEAD_M = FollowSpec().lookahead_m
+WAYPOINT_SWITCH_M = FollowSpec().waypoint_switch_m
+
 
 R = 0.25
 W, H = 20.0, 10.0

@@ -12,12 +12,11 @@ import itertools
 import numpy as np
 import pytest
 
-import sim.spatial.contacts
 from allocation.auction import MarketAllocator
 from allocation.costs import make_cost_model
 from learning.episode import run_protocol
 from sim.recording import TrajectoryRecorder
-from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec, StreamSpec
+from sim.scenario import ContactSpec, DriveSpec, RobotSpec, Scenario, SpatialSpec, StreamSpec
 from sim.spatial.controller import DiffDriveController
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import polygon_signed_distance
@@ -342,14 +341,16 @@ def test_crowd_never_overlaps_a_centimetre_and_the_monitor_sees_every_step(contr
     assert world.contacts_max_overlap_m <= 0.01
 
 
-def test_one_solver_iteration_is_exact_while_nothing_touches(monkeypatch):
+def test_one_solver_iteration_is_exact_while_nothing_touches():
     """Without contacts every robot is joined only to its own kinematic control body: the space
     steps with one solver iteration and the result is bit for bit that of ten."""
     starts = [(2.0, 2.0), (2.0, 8.0), (18.0, 5.0)]
     sites = [(17.0, 3.0), (10.0, 9.0), (4.0, 5.5)]
 
-    def run():
-        world = PymunkWorld(scenario(starts, sites=sites))
+    def run(free_iterations: int):
+        contacts = ContactSpec(free_iterations=free_iterations)
+        world = PymunkWorld(scenario(starts, sites=sites, contacts=contacts))
+        assert world.space.iterations == free_iterations
         send(world, [0, 1, 2], sites)
         poses = [np.concatenate([*world.poses()[:1], world.poses()[1][:, None]], axis=1)]
         for _ in range(12):
@@ -359,9 +360,7 @@ def test_one_solver_iteration_is_exact_while_nothing_touches(monkeypatch):
         assert world.contacts.steps_touching == 0 and world.collision_count == 0
         return np.array(poses)
 
-    adaptive = run()
-    monkeypatch.setattr(sim.spatial.contacts, "FREE_ITERATIONS", 10)
-    assert np.array_equal(run(), adaptive)
+    assert np.array_equal(run(10), run(1))
 
 
 def test_small_team_and_array_control_periods_agree():
@@ -598,7 +597,7 @@ def test_lane_room_is_the_room_left_within_the_free_width_of_the_segment():
     assert f.free_m[0, 1, 1] == pytest.approx(0.4 - R)
 
 
-def test_dropped_spaces_are_freed_once_they_hold_gc_robots_and_the_rest_at_once(monkeypatch):
+def test_dropped_spaces_are_freed_once_they_hold_gc_robots_and_the_rest_at_once():
     """A set boundary drops the space (and every collaborator built with it). The space and
     its contact monitor wait for a garbage collection (pymunk's collision handlers and the
     space hold each other), which runs once the dropped spaces hold ``GC_ROBOTS`` robots; the
@@ -606,14 +605,11 @@ def test_dropped_spaces_are_freed_once_they_hold_gc_robots_and_the_rest_at_once(
     import gc
     import weakref
 
-    import sim.spatial.world
-
-    monkeypatch.setattr(sim.spatial.world, "GC_ROBOTS", 6)
-    world = PymunkWorld(scenario([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)]))
+    world = PymunkWorld(scenario([(2.0, 2.0), (5.0, 2.0), (8.0, 2.0)]), gc_robots=6)
     send(world, [0, 1], [(12.0, 2.0), (12.0, 6.0)])
     world.drain()  # their tasks done, the set ends: a 3-robot space dropped, not yet collected
     assert world.dropped_robots_ == 3
-    monkeypatch.setattr(sim.spatial.world, "GC_ROBOTS", 9)  # from here, three 3-robot spaces
+    world.gc_robots = 9  # from here, three 3-robot spaces
     gc.collect()
     gc.disable()
     try:

@@ -209,22 +209,18 @@ def test_single_queries_in_python_equal_the_array_versions(obstacles):
     np.testing.assert_allclose(lengths, planner.distances(starts[:n], goals[:n]).diagonal())
 
 
-def test_blocked_in_small_chunks_decides_as_in_one(monkeypatch):
-    """``blocked`` splits many segments into chunks of at most ``_CHUNK`` (segment, edge)
+def test_blocked_in_small_chunks_decides_as_in_one():
+    """``blocked`` splits many segments into chunks of at most ``chunk`` (segment, edge)
     entries: with chunks of a few segments, some meeting no obstacle at all, every segment is
     decided as in one chunk (and as ``blocked_one`` decides it)."""
-    import sim.spatial.navigation.planning
-
     planner = GridPlanner(spatial((BOX, TRIANGLE)))
     rng = np.random.default_rng(5)
     a, b = rng.uniform(0.5, 19.5, size=(2, 600, 2))
     b[::3] = a[::3] + 0.2  # short segments, most of them meeting no obstacle's box
     whole = planner.blocked(a, b)
     assert 50 < whole.sum() < 550
-    monkeypatch.setattr(
-        sim.spatial.navigation.planning, "_CHUNK", 3 * 2 * planner.normals_.shape[1]
-    )
-    np.testing.assert_array_equal(planner.blocked(a, b), whole)  # chunks of three segments
+    small = GridPlanner(spatial((BOX, TRIANGLE)), chunk=3 * 2 * planner.normals_.shape[1])
+    np.testing.assert_array_equal(small.blocked(a, b), whole)  # chunks of three segments
     single = [planner.blocked_one(*p, *q) for p, q in zip(a.tolist(), b.tolist(), strict=True)]
     assert single == whole.tolist()
 
@@ -280,9 +276,7 @@ def test_path_around_in_a_local_box_builds_the_graph_it_would_from_scratch(monke
     def spy(self, obstacles, known=None):
         plain(self, obstacles, known)
         if known is not None:
-            ref = GridPlanner.__new__(GridPlanner)
-            ref.spatial, ref.inflate_m, ref.tol_m = self.spatial, self.inflate_m, self.tol_m
-            ref.lo_, ref.hi_, ref.box_ = self.lo_, self.hi_, self.box_
+            ref = self.empty_like()
             plain(ref, obstacles)
             built.append((self, ref))
 

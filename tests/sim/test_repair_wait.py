@@ -11,9 +11,13 @@ import dataclasses
 
 import numpy as np
 
-from sim.spatial.jobs import REPAIR_WAIT_S
+from sim.scenario import RecoverySpec
 from sim.spatial.navigation.planning import GridPlanner
 from tests.sim.test_jobs import GAP, at, give, make_world, waypoints
+
+# the settings' defaults (sim.scenario), under the names these tests use
+REPAIR_WAIT_S = RecoverySpec().repair_wait_s
+
 
 PLUG = ((9.8, 4.5), (10.2, 4.5), (10.2, 5.5), (9.8, 5.5))  # broken robots fill the gap
 BOX = [  # walls round (16, 2): closed to the world's planner once the plug is gone

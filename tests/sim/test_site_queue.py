@@ -8,10 +8,17 @@ import numpy as np
 import pytest
 
 from scenarios.experiments.hardcases import circle, swap_world
-from sim.spatial.jams import AROUND_M
-from sim.spatial.sites import EXIT_M, EXIT_TIMEOUT_S, HOLD_MAX_S, QUEUE_M
+from sim.scenario import JamSpec, QueueSpec
 from sim.states import DRIVING, IDLE, WAITING, WORKING, shown_states
 from tests.sim.test_jobs import at, give, make_world, orca_world, waypoints
+
+# the settings' defaults (sim.scenario), under the names these tests use
+AROUND_M = JamSpec().around_m
+EXIT_M = QueueSpec().exit_m
+EXIT_TIMEOUT_S = QueueSpec().exit_timeout_s
+HOLD_MAX_S = QueueSpec().hold_max_s
+QUEUE_M = QueueSpec().queue_m
+
 
 SITE = 10 + 5j
 RING = 2 * 0.25 + 0.35  # m, the 4 service slots round a service point
@@ -222,8 +229,8 @@ def test_thirty_robots_sent_to_one_site_all_work_there_within_90_s_without_a_con
     assert world.jobs.failures == 0
 
 
-def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_path(monkeypatch):
-    """More than LOCAL_MIN_VERTICES obstacle vertices: the throwaway planner keeps only the
+def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_path():
+    """More than ``local_min_vertices`` obstacle vertices: the throwaway planner keeps only the
     obstacles near the start, the goal and the robots; round one robot in open floor that
     gives the path the whole arena gives."""
     import sim.spatial.navigation.planning as planning
@@ -236,11 +243,10 @@ def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_pa
     )
     sp = SpatialSpec(64.0, 64.0, boxes, (((2.0, 2.0),),), DriveSpec())
     pl = planning.GridPlanner(sp)
-    assert len(pl.vertices_) > planning.LOCAL_MIN_VERTICES
+    assert len(pl.vertices_) > pl.local_min_vertices
     start, goal, robot = (2.5, 3.0), (9.0, 3.0), np.array([5.0 + 3.0j])
     local = pl.path_around(start, goal, robot, 0.25)
-    monkeypatch.setattr(planning, "LOCAL_MIN_VERTICES", 10**9)
-    whole = pl.path_around(start, goal, robot, 0.25)
+    whole = planning.GridPlanner(sp, local_min_vertices=10**9).path_around(start, goal, robot, 0.25)
     assert len(local) > 2 and np.allclose(local, whole)
     far = pl.path_around((2.5, 3.0), (62.0, 62.0), robot, 0.25)  # goal far off: the box grows
     assert len(far) and np.allclose(far[-1], (62.0, 62.0))

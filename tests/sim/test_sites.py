@@ -14,10 +14,18 @@ import io
 import numpy as np
 import pytest
 
-from sim.spatial.sites import EXIT_M, HOLD_MAX_S, PULL_GAP_M, QUEUE_M, SLOT_GAP_M
+from sim.scenario import MakeWaySpec, QueueSpec
 from sim.states import IDLE, WORKING
 from tests.sim.test_jobs import SHELF, at, give, orca_world, service, slot, waypoints
 from tests.sim.test_site_queue import SITE, crowd, full_site
+
+# the settings' defaults (sim.scenario), under the names these tests use
+EXIT_M = QueueSpec().exit_m
+HOLD_MAX_S = QueueSpec().hold_max_s
+PULL_GAP_M = MakeWaySpec().pull_gap_m
+QUEUE_M = QueueSpec().queue_m
+SLOT_GAP_M = QueueSpec().slot_gap_m
+
 
 OUT_M = QUEUE_M + EXIT_M  # a robot that drives out ends this far from the site
 

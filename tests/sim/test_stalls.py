@@ -9,8 +9,14 @@ import numpy as np
 import pytest
 
 from scenarios.experiments.hardcases import swap_world, time_to_all_arrive
-from sim.spatial.stalls import CAUSES, LONG_S, NEAR_M, STILL_MPS, StallMeter, nearest_other
+from sim.scenario import StallSpec
+from sim.spatial.stalls import CAUSES, StallMeter, nearest_other
 from sim.states import DRIVING, IDLE, WORKING
+
+# the settings' defaults (sim.scenario), under the names these tests use
+LONG_S = StallSpec().long_s
+NEAR_M = StallSpec().near_m
+STILL_MPS = StallSpec().still_mps
 
 
 def _fleet(state, v, xy, th_deg, task=None):
@@ -25,13 +31,10 @@ def _fleet(state, v, xy, th_deg, task=None):
 
 
 @pytest.fixture(params=["python", "numpy"])
-def counting(request, monkeypatch):
-    """Both ways a period is counted: robot by robot (a small team) and over numpy arrays."""
-    import sim.spatial.stalls
-
-    if request.param == "numpy":
-        monkeypatch.setattr(sim.spatial.stalls, "SMALL_MAX", 0)
-    return request.param
+def counting(request):
+    """Both ways a period is counted: robot by robot (a small team) and over numpy arrays
+    (``small_max``: the largest team counted in Python)."""
+    return {"small_max": 0} if request.param == "numpy" else {}
 
 
 def test_each_still_robot_is_counted_once_under_its_cause(counting):
@@ -44,7 +47,7 @@ def test_each_still_robot_is_counted_once_under_its_cause(counting):
     xy = [(0, 0), (0, 0.7), (10, 0), (20, 0), (30, 0), (30.6, 0), (0, -1.0), (10.8, 0), (20.9, 0)]
     th = [0.0, 0.0, 0.0, 0.0, 0.0, 170.0, 20.0, 0.0, 0.0]
     holding = np.array([False, True, False, False, False, False, False, False, False])
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, **counting)
     meter.sample(_fleet(state, v, xy, th), holding)
     got = dict(zip(CAUSES, meter.still.tolist(), strict=True))
     assert got == {
@@ -67,7 +70,7 @@ def test_thresholds_speed_distance_and_angle(counting):
     """At ``STILL_MPS`` a robot moves; a robot ``NEAR_M`` away or farther is no robot; a
     crossing is between 45 and 135 degrees, the same way within 45."""
     d = DRIVING
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, **counting)
     state = [d] * 7
     v = [STILL_MPS] + [0.0] * 6
     xy = [(0, 0), (0, 10), (NEAR_M, 10), (20, 0), (20.5, 0), (30, 0), (30.5, 0)]
@@ -113,7 +116,7 @@ def test_the_map_puts_each_still_period_in_the_cell_of_its_robot(counting):
     xy = [(1.26, 2.74), (4.0, 4.0), (4.6, 4.0), (-0.3, 9.9), (11.0, 9.99), (5.0, 5.0)]
     th = [0.0] * 6
     holding = np.array([True, False, False, False, False, False])
-    meter = StallMeter(0.1, 10.0, 8.0)
+    meter = StallMeter(0.1, 10.0, 8.0, **counting)
     assert meter.map.shape == (len(CAUSES), 16, 20) and meter.cell_m == 0.5
     for _ in range(3):
         meter.sample(_fleet(state, v, xy, th), holding)
@@ -123,8 +126,8 @@ def test_the_map_puts_each_still_period_in_the_cell_of_its_robot(counting):
     q, work, none = CAUSES.index("queue"), CAUSES.index("robot_at_work"), CAUSES.index("no_robot")
     assert at == {(q, 5, 2): 3, (work, 8, 8): 3, (none, 15, 0): 3, (none, 15, 19): 3}  # row: y
     assert meter.seconds_map()[work, 8, 8] == pytest.approx(0.3)
-    assert StallMeter(0.1).map.size == 0
-    big = StallMeter(0.1, 1000.0, 250.0)
+    assert StallMeter(0.1, **counting).map.size == 0
+    big = StallMeter(0.1, 1000.0, 250.0, **counting)
     assert big.map.shape[1:] == (32, MAP_MAX_CELLS) and big.cell_m == pytest.approx(1000 / 128)
 
 
@@ -166,7 +169,7 @@ def test_standing_past_long_s_is_long_and_a_stand_ends_when_it_moves_or_changes_
     another task: a new stand, 20 periods and none long. Robot 1 drives all along; robot 2
     stands idle (not driving: never counted)."""
     d, i = DRIVING, IDLE
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, **counting)
     assert meter.long_after == round(LONG_S / 0.1) == 20
     xy, th = [(0, 0), (10, 0), (20, 0)], [0.0, 0.0, 0.0]
 
@@ -196,7 +199,7 @@ def test_long_standing_goes_under_the_cause_of_each_period(counting):
     """A robot stands 30 periods; a robot at work is beside it in periods 15-24: of the 10
     long periods (20-29), 5 are 'beside a robot at work' and 5 'no robot'."""
     d, w = DRIVING, WORKING
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, **counting)
     for k in range(30):
         there = 15 <= k < 25
         xy = [(0, 0), (0.8, 0) if there else (30, 0)]
@@ -254,7 +257,7 @@ def test_nearest_other_in_a_large_team_beyond_near_m_is_none_and_up_to_64_the_tr
 
 def test_of_two_equally_near_robots_the_first_is_the_cause(counting):
     d, w, i = DRIVING, WORKING, IDLE
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, **counting)
     xy = [(5, 5), (5, 5.6), (5, 4.4)]  # robot 1 (working) and 2 (idle) both 0.6 m away
     meter.sample(_fleet([d, w, i], [0, 0, 0], xy, [0, 0, 0]), np.zeros(3, bool))
     assert meter.still.tolist()[CAUSES.index("robot_at_work")] == 1
@@ -272,14 +275,14 @@ def test_the_angle_between_headings_decides_head_on_crossing_or_same_way(
     counting, a_deg, b_deg, cause
 ):
     d = DRIVING
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, **counting)
     meter.sample(_fleet([d, d], [0.0, 1.0], [(1, 1), (1.5, 1)], [a_deg, b_deg]), np.zeros(2, bool))
     assert meter.still.tolist() == [int(c == cause) for c in CAUSES]
 
 
 def test_robots_outside_the_arena_count_in_the_cells_at_its_border(counting):
     d = DRIVING
-    meter = StallMeter(0.1, width_m=2.0, height_m=1.0)
+    meter = StallMeter(0.1, width_m=2.0, height_m=1.0, **counting)
     xy = [(-0.7, -0.6), (0.2, 0.2), (2.4, 1.3), (1.2, 0.7)]  # x, y < -0.5 m: below cell 0
     meter.sample(_fleet([d] * 4, [0.0] * 4, xy, [0.0] * 4), np.zeros(4, bool))
     cells = meter.seconds_map().sum(axis=0)  # every cause
@@ -294,13 +297,13 @@ def test_a_meter_without_an_arena_keeps_no_map_and_a_small_arena_has_cells():
 
 def test_counts_are_integers_from_a_fresh_meter_a_sampled_one_and_an_old_checkpoint(counting):
     d = DRIVING
-    meter = StallMeter(0.1, 4.0, 4.0)
+    meter = StallMeter(0.1, 4.0, 4.0, **counting)
     for name, a in meter.state_arrays().items():
         assert a.dtype == np.int64, name
     meter.sample(_fleet([d, d], [0.0, 0.0], [(1, 1), (1.5, 1)], [0, 90]), np.zeros(2, bool))
     for name, a in meter.state_arrays().items():
         assert a.dtype == np.int64, name
-    old = StallMeter(0.1, 4.0, 4.0)
+    old = StallMeter(0.1, 4.0, 4.0, **counting)
     old.restore_arrays({"still": np.arange(len(CAUSES), dtype=float)})  # before stands counted
     for name, a in old.state_arrays().items():
         assert a.dtype == np.int64, name
@@ -309,7 +312,7 @@ def test_counts_are_integers_from_a_fresh_meter_a_sampled_one_and_an_old_checkpo
 
 def test_driving_adds_up_over_periods_and_one_period_standing_is_all_of_it(counting):
     d = DRIVING
-    meter = StallMeter(0.1)
+    meter = StallMeter(0.1, **counting)
     meter.sample(_fleet([d, IDLE], [0.0, 0.0], [(1, 1), (9, 9)], [0, 0]), np.zeros(2, bool))
     assert meter.summary()["still_share"] == 1.0  # one robot-period driving, standing
     meter.sample(_fleet([d, d], [1.0, 0.0], [(1, 1), (9, 9)], [0, 0]), np.zeros(2, bool))

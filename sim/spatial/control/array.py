@@ -15,9 +15,7 @@ import numpy as np
 
 from sim.spatial.control.avoidance import steer_clear, wall_clear
 from sim.spatial.control.protocol import ControlParts
-from sim.spatial.fleet import PROGRESS_M
-from sim.spatial.jobs import RECOVERED_M, YIELD_TRIGGER_M
-from sim.spatial.law.drive import SPEED_BOUND, next_check_s, preferred_velocity
+from sim.spatial.law.drive import next_check_s, preferred_velocity
 from sim.states import DRIVING, IDLE
 
 FREE_CAP_M = 2.0  # free widths of side steps as far as this (the step is 1 m), then on demand
@@ -127,10 +125,10 @@ class ArrayControl:
             better = left < f.progress_m
             better &= go
             if np.count_nonzero(better):
-                np.putmask(f.progress_m, better, left - PROGRESS_M)
+                np.putmask(f.progress_m, better, left - jobs.recovery.progress_m)
                 np.putmask(f.t_progress_s, better, t)
                 if sch.recovering:  # got past where it last got stuck: tries start again
-                    past = better & (left < f.stuck_left_m - RECOVERED_M)
+                    past = better & (left < f.stuck_left_m - jobs.recovery.recovered_m)
                     if np.count_nonzero(past):
                         jobs.recovered(past.nonzero()[0].tolist())
             if t > sch.stuck_check_s:
@@ -163,7 +161,7 @@ class ArrayControl:
         zone = tol + 2 * reach
         there = go & (gap <= zone)
         if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
-            if p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
+            if p.avoid:  # no pushing in: a slot, or wait for the service point
                 p.jobs.sites.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)
                 queue = np.zeros(0, dtype=int)
             else:
@@ -189,15 +187,15 @@ class ArrayControl:
                     there[i[nearer]] = True
             p.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
         nearest = float(np.where(go, gap, np.inf).min()) - zone
-        p.schedule.site_check_s = next_check_s(t, nearest, SPEED_BOUND * c.v_max_mps)
+        p.schedule.site_check_s = next_check_s(t, nearest, c.speed_bound * c.v_max_mps)
 
     def _near(self, z, th, h, hc, v, w, t: float) -> None:
         """Proximity caps, keep-right and make-way (writes ``v``, ``w`` in place)."""
         p = self.parts
-        f, c, reach = p.fleet, p.controller, p.reach_m + YIELD_TRIGGER_M
+        f, c, reach = p.fleet, p.controller, p.reach_m + p.jobs.stepping.trigger_m
         cap, blocker, near, apart = c.proximity(z, hc, v, f.v_cmd_mps)
         if cap is None:  # no cap binds before two robots could be look_m apart
-            closing = 2.0 * SPEED_BOUND * c.v_max_mps
+            closing = 2.0 * c.speed_bound * c.v_max_mps
             p.schedule.prox_check_s = next_check_s(t, apart - c.look_m, closing)
             f.clear_way()
             return

@@ -7,7 +7,7 @@ import numpy as np
 
 from sim.spatial.control.orca_small import avoid_small
 from sim.spatial.control.protocol import ControlParts
-from sim.spatial.law import orca as law  # read at call time: one set of knobs for both periods
+from sim.spatial.law import orca as law
 from sim.states import DRIVING
 
 
@@ -36,7 +36,8 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
         return None
     fol = parts.follower
     args = (z, vel, h, rows, pref[rows], v_want[rows], steering, c.radius_m, c.v_max_mps)
-    return (avoid_small if small else law.avoid)(*args, c.react_s, fol.to_obstacle, fol.lane_room)
+    call = avoid_small if small else law.avoid
+    return call(*args, c.react_s, fol.to_obstacle, fol.lane_room, parts.orca)
 
 
 def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
@@ -64,28 +65,29 @@ def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
         return None
     c, fol = parts.controller, parts.follower
     v = np.asarray(v, dtype=float)
-    rows = near_walls(fol, z, rows, v[rows], c.radius_m)
+    rows = near_walls(fol, z, rows, v[rows], c.radius_m, parts.orca)
     if not len(rows):
         return None
-    args = (c.radius_m, c.v_max_mps, fol.to_obstacle, fol.lane_room)
+    args = (c.radius_m, c.v_max_mps, fol.to_obstacle, fol.lane_room, parts.orca)
     return law.steer_walls(z, h, rows, v[rows], pref[rows], *args)
 
 
-def near_walls(fol, z, rows, v, radius_m: float):
+def near_walls(fol, z, rows, v, radius_m: float, p: law.OrcaLaw = law.DEFAULT):
     """Of robots ``rows`` (speed commands ``v``), those whose wall or lane lines could bind:
-    the obstacle line only within radius + ``MARGIN_M`` + ``WALL_GAP_M`` + |v| ``TAU_OBSTACLE_S``
+    the obstacle line only within radius + ``margin_m`` + ``wall_gap_m`` + |v| ``tau_obstacle_s``
     of an obstacle (a plan closes on it at |v| at most), the lane lines only within radius +
-    ``LANE_NEAR_M``. A robot's distance to the nearest obstacle is kept with where it was
-    measured (on the follower: the obstacles stand still), so a robot that has not come
-    closer than that reach by the way it has moved since is passed over without a look. The
-    robots dropped could not have bound: the commands are the same as over all ``rows``."""
+    ``lane_near_m`` (``p``: the law's settings, ``[spatial.orca]``). A robot's distance to the
+    nearest obstacle is kept with where it was measured (on the follower: the obstacles stand
+    still), so a robot that has not come closer than that reach by the way it has moved since is
+    passed over without a look. The robots dropped could not have bound: the commands are the same
+    as over all ``rows``."""
     m = len(z)
     cache = getattr(fol, "wall_seen_", None)
     if cache is None or len(cache[0]) != m:
         cache = fol.wall_seen_ = (np.zeros(m, dtype=complex), np.full(m, -np.inf))
     seen_z, seen_m = cache
-    reach = np.abs(v) * law.TAU_OBSTACLE_S + (radius_m + law.MARGIN_M + law.WALL_GAP_M)
-    reach = np.maximum(reach, radius_m + law.LANE_NEAR_M) + 1e-6
+    reach = np.abs(v) * p.tau_obstacle_s + (radius_m + p.margin_m + p.wall_gap_m)
+    reach = np.maximum(reach, radius_m + p.lane_near_m) + 1e-6
     near = seen_m[rows] - np.abs(z[rows] - seen_z[rows]) < reach
     look = rows[near]
     if len(look):

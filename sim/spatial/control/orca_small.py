@@ -14,7 +14,8 @@ from math import sqrt
 
 import numpy as np
 
-from sim.spatial.law import orca  # its constants and functions read at call time: one set of knobs
+from sim.spatial.law import orca
+from sim.spatial.law.orca import DEFAULT, OrcaLaw
 
 
 def half_plane_one(rel_p: complex, rel_v: complex, vel_i: complex, share: float, combined_m, tau):
@@ -61,6 +62,7 @@ def avoid_small(
     dt_s: float,
     to_obstacle,
     lanes=None,
+    p: OrcaLaw = DEFAULT,
 ):
     """:func:`sim.spatial.law.orca.avoid` for a small team: the same commands bit for bit, most
     periods without numpy.
@@ -79,16 +81,16 @@ def avoid_small(
         as :func:`avoid`.
     """
     m = len(z)
-    k = min(orca.MAX_NEIGHBOURS, m - 1)
+    k = min(p.max_neighbours, m - 1)
     if k < 1 or not len(rows):
         return None
-    found = binding(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s)
+    found = binding(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s, p)
     if found is None:  # too close to call in Python: the law decides on the robots kept
-        keep = np.array(may_bind(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s))
+        keep = np.array(may_bind(z, vel, h, rows, v_want, steering, radius_m, v_max, dt_s, p))
         if not len(keep):
             return None
         args = (z, vel, h, rows[keep], pref[keep], v_want[keep], steering, radius_m, v_max)
-        return orca.avoid(*args, dt_s, to_obstacle, lanes)
+        return orca.avoid(*args, dt_s, to_obstacle, lanes, p)
     if not found:
         return None
     idx = np.zeros((len(found), k), dtype=np.intp)
@@ -97,24 +99,26 @@ def avoid_small(
         idx[b, : len(near)] = near
         mask[b, : len(near)] = True
     place = np.array([row for row, _ in found])
-    normal, offset = orca.pair_planes(z, vel, rows[place], idx, mask, steering, radius_m, dt_s)
-    args = (normal, offset, pref[place], radius_m, v_max, to_obstacle, lanes)
+    normal, offset = orca.pair_planes(z, vel, rows[place], idx, mask, steering, radius_m, dt_s, p)
+    args = (normal, offset, pref[place], radius_m, v_max, to_obstacle, lanes, p)
     return orca.steer_rows(z, h, rows[place], *args)
 
 
-def binding(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):
+def binding(
+    z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float, p=DEFAULT
+):
     """:func:`avoid`'s first steps in plain Python: for each robot of ``rows`` whose plan leaves
-    one of the half-planes of its ``MAX_NEIGHBOURS`` nearest robots in range by more than 1e-9,
+    one of the half-planes of its ``max_neighbours`` nearest robots in range by more than 1e-9,
     its place in ``rows`` and those neighbours, nearest first; None where rounding could decide
     (distances within 1e-12 of each other or of the range, a plan within 1e-10 of 1e-9)."""
     m = len(z)
-    k_max = min(orca.MAX_NEIGHBOURS, m - 1)
-    reach = orca.orca_range_m(radius_m, v_max)
+    k_max = min(p.max_neighbours, m - 1)
+    reach = orca.orca_range_m(radius_m, v_max, p)
     edge = reach * 1e-12
     zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
     steer, want = steering.tolist(), v_want.tolist()
-    combined = 2.0 * (radius_m + orca.MARGIN_M)
-    tau = (1.0 / orca.TAU_S, 1.0 / dt_s)
+    combined = 2.0 * (radius_m + p.margin_m)
+    tau = (1.0 / p.tau_s, 1.0 / dt_s)
     found = []
     for row, j in enumerate(rows.tolist()):
         zj, vj = zs[j], vs[j]
@@ -146,18 +150,20 @@ def binding(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt
     return found
 
 
-def may_bind(z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float):
+def may_bind(
+    z, vel, h, rows, v_want, steering, radius_m: float, v_max: float, dt_s: float, p=DEFAULT
+):
     """Places in ``rows`` of the robots whose plan (``v_want`` along the heading) leaves the
     half-plane of a robot within range (:func:`half_plane_one`), in plain Python; a robot
     not listed has no binding half-plane in :func:`avoid`. Arguments as :func:`avoid`."""
     m = len(z)
     if m < 2 or not len(rows):
         return []
-    reach = orca.orca_range_m(radius_m, v_max) * (1.0 + 1e-9)
+    reach = orca.orca_range_m(radius_m, v_max, p) * (1.0 + 1e-9)
     zs, vs, hs = z.tolist(), vel.tolist(), h.tolist()
     steer, want = steering.tolist(), v_want.tolist()
-    combined = 2.0 * (radius_m + orca.MARGIN_M)
-    tau = (1.0 / orca.TAU_S, 1.0 / dt_s)
+    combined = 2.0 * (radius_m + p.margin_m)
+    tau = (1.0 / p.tau_s, 1.0 / dt_s)
     keep = []
     for row, j in enumerate(rows.tolist()):
         zj, vj = zs[j], vs[j]

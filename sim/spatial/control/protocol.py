@@ -16,6 +16,7 @@ from typing import Protocol
 from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import FleetState, Schedule
 from sim.spatial.jobs import Jobs
+from sim.spatial.law.orca import DEFAULT, OrcaLaw
 from sim.spatial.motors import Motors
 from sim.spatial.navigation.paths import PathFollower
 
@@ -34,7 +35,8 @@ class ControlParts:
         arrive_tol_m: a robot this close to its site has arrived, m.
         reach_m: robot centres closer than this are touching, m.
         avoid: steer with ORCA (``sim.spatial.law.orca``) and without keep-right (``[spatial]
-            avoidance = "orca"``); False: today's proximity law alone.
+            avoidance = "orca"``); False: the proximity law alone.
+        orca: ORCA's settings (``[spatial.orca]``).
     """
 
     fleet: FleetState
@@ -46,6 +48,7 @@ class ControlParts:
     arrive_tol_m: float
     reach_m: float
     avoid: bool = False
+    orca: OrcaLaw = DEFAULT
 
 
 class Control(Protocol):

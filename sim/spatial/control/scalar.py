@@ -26,14 +26,7 @@ import numpy as np
 
 from sim.spatial.control.avoidance import steer_clear, wall_clear
 from sim.spatial.control.protocol import ControlParts
-from sim.spatial.fleet import PROGRESS_M
-from sim.spatial.jobs import RECOVERED_M, YIELD_TRIGGER_M
 from sim.spatial.law.drive import (
-    COS_AHEAD,
-    HEADING_GAIN,
-    KEEP_RIGHT_GAIN,
-    SPEED_BOUND,
-    TURN_FIRST_RADPS,
     approach_cap_mps,
     control_body,
     goes_our_way,
@@ -46,7 +39,6 @@ from sim.spatial.law.drive import (
     stopping_time_s,
     twist_from_rims,
 )
-from sim.spatial.navigation.paths import LOOKAHEAD_M
 from sim.states import DRIVING, IDLE
 
 
@@ -103,6 +95,8 @@ class ScalarControl:
         if steered:
             tgt, unit_c, switch, beyond, free0, free1, after, corner2, seg_m = fol.segment_lists()
             gain, bias = c.align_gain_, c.align_bias_
+            heading_gain, lookahead = c.heading_gain, fol.lookahead_m
+            step_m, recovered_m = jobs.recovery.progress_m, jobs.recovery.recovered_m
             brake2 = 2.0 * c.brake_mps2
             brake, top_v, avoiding = c.brake_mps2, c.v_max_mps, p.avoid
             left_m, progress = f.left_m, f.progress_m.tolist()
@@ -122,7 +116,7 @@ class ScalarControl:
                     p = d * unit_c[j]
                 side, aim = p.imag, d
                 if side < free0[j] or side > free1[j]:  # straight could touch an obstacle
-                    back = min(max(p.real - LOOKAHEAD_M, 0.0), seg_m[j])
+                    back = min(max(p.real - lookahead, 0.0), seg_m[j])
                     aim = d - back * unit_c[j].conjugate()
                     off.append(j)
                 local = aim * hs[j].conjugate()
@@ -131,16 +125,16 @@ class ScalarControl:
                 if avoiding:
                     pref[j] = preferred_velocity(aim, gap, corner2[j], brake, top_v, sqrt, min)
                 vj = 0.0 if vj < 0.0 else (stop if stop < vj else vj)
-                wj = err * HEADING_GAIN
+                wj = err * heading_gain
                 left = gap + after[j]
                 left_m[j] = left
                 if yielding is not None and yielding[j] and (left < 0.15 or until[j] < t):
                     stops.append(j)
                     vj = wj = 0.0
                 elif go[j] and left < progress[j]:
-                    f.progress_m[j] = left - PROGRESS_M
+                    f.progress_m[j] = left - step_m
                     f.t_progress_s[j] = t
-                    if sch.recovering and left < f.stuck_left_m[j] - RECOVERED_M:
+                    if sch.recovering and left < f.stuck_left_m[j] - recovered_m:
                         jobs.recovered([j])  # got past where it last got stuck
                 v[j], w[j] = vj, wj
             for j in stops:
@@ -189,7 +183,7 @@ class ScalarControl:
             self.obstacle_caps(zs, hs, v, off + backing)
         # ---- wheel limits (DiffDriveController.limit) and the motor command (Motors.write) ----
         s, hb, top = c.rim_step_mps, c.half_base_m, c.rim_max_mps
-        turn_q = TURN_FIRST_RADPS * hb if self.parts.avoid else np.inf  # slow a fast turn first
+        turn_q = c.turn_first_radps * hb if self.parts.avoid else np.inf  # slow a fast turn first
         q0s = f.q_cmd_mps.tolist()
         write = motors.write_one
         moving = changed = False
@@ -248,7 +242,7 @@ class ScalarControl:
                     arrived.append(j)
                 elif gap <= zone:
                     queue.append((j, gap))
-        if queue and p.jobs.clear_sites:  # no pushing in: a slot, or wait for the service point
+        if queue and p.avoid:  # no pushing in: a slot, or wait for the service point
             p.jobs.sites.take_slots([j for j, _ in queue], np.array(zs), t)
             queue = []
         if queue:  # touching a robot that stands nearer the site: the site is taken,
@@ -266,7 +260,7 @@ class ScalarControl:
                     arrived.append(j)
             arrived.sort()
         p.jobs.start_work(arrived, v, w, t)
-        speed = SPEED_BOUND * p.controller.v_max_mps
+        speed = p.controller.speed_bound * p.controller.v_max_mps
         p.schedule.site_check_s = next_check_s(t, nearest - zone, speed)
 
     def obstacle_caps(self, zs, hs, v, rows) -> None:
@@ -277,7 +271,7 @@ class ScalarControl:
                 written in place); rows: the robots to cap.
         """
         c, to_obstacle = self.parts.controller, self.parts.follower.to_obstacle_one
-        two_a, at, at2 = c.two_a_, c.at_, c.at2_
+        two_a, at, at2, creep = c.two_a_, c.at_, c.at2_, c.creep_mps
         for j in rows:
             vj = v[j]
             if vj == 0.0:  # nothing to cap
@@ -288,7 +282,7 @@ class ScalarControl:
             tau = -tau if vj < 0.0 else tau
             tau = tau if tau > 1e-9 else 1e-9
             share = dist - c.radius_m if dist > c.radius_m else 0.0
-            cap, floor = approach_cap_mps(share, tau, two_a, at, at2, sqrt)
+            cap, floor = approach_cap_mps(share, tau, two_a, at, at2, sqrt, creep)
             cap = floor if cap < floor else cap
             if cap < abs(vj):
                 v[j] = cap if vj > 0.0 else -cap
@@ -318,11 +312,12 @@ class ScalarControl:
             elif nearest < apart:
                 apart = nearest
         if not rows:  # no cap binds before a steering robot could be look_m from another
-            sch.prox_check_s = next_check_s(t, apart - look, 2.0 * SPEED_BOUND * c.v_max_mps)
+            sch.prox_check_s = next_check_s(t, apart - look, 2.0 * c.speed_bound * c.v_max_mps)
             f.clear_way()
             return
         contact, react, inv2a, at, at2 = c.contact_m, c.react_s, c.inv2a_, c.at_, c.at2_
         two_a, credit = c.two_a_, 0.5 / c.wheel_decel_
+        creep, cos_ahead = c.creep_mps, c.cos_ahead
         limit, near, blocker = [np.inf] * m, [np.inf] * m, [-1] * m
         for i, zi, dist in rows:  # the pairs (i, k) closer than look_m, in order
             vi = v[i]
@@ -351,11 +346,11 @@ class ScalarControl:
                 share, half = pair_share_m(gap, their, mine)  # g - theirs less k's half of the rest
                 share = half if half < share else share
                 share = share if share > 0.0 else 0.0
-                cap, floor = approach_cap_mps(share, toward, two_a, at, at2, sqrt)
+                cap, floor = approach_cap_mps(share, toward, two_a, at, at2, sqrt, creep)
                 cap = floor if cap < floor else cap
                 if cap < limit[i]:
                     limit[i] = cap
-                if toward > COS_AHEAD and d < near[i]:
+                if toward > cos_ahead and d < near[i]:
                     near[i], blocker[i] = d, k
         for j in movers:
             if limit[j] < abs(v[j]):
@@ -363,13 +358,13 @@ class ScalarControl:
         f.blocker, f.near_m = np.array(blocker), np.array(near)
         closest = min(near)
         if closest < c.keep_right_m and not p.avoid:
-            turn = KEEP_RIGHT_GAIN * c.omega_max_radps
+            turn, same = c.keep_right_gain * c.omega_max_radps, c.same_way_cos
             for j in movers:
                 o = blocker[j]
                 if near[j] < c.keep_right_m:
-                    if not (state[o] == DRIVING and goes_our_way(ths[j], ths[o], cos)):
+                    if not (state[o] == DRIVING and goes_our_way(ths[j], ths[o], cos, same)):
                         w[j] -= turn
-        reach = p.reach_m + YIELD_TRIGGER_M
+        reach = p.reach_m + p.jobs.stepping.trigger_m
         if closest < reach:
             yielding = f.yielding.tolist()
             pushers = [

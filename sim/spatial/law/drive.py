@@ -19,22 +19,7 @@ b / 2), rim speeds v +- q. Speeds are in m/s, distances in m, times in s.
 
 from __future__ import annotations
 
-import math
-
-HEADING_GAIN = 2.5  # 1/s: omega command per radian of heading error
-TURN_IN_PLACE_RAD = math.pi / 3  # beyond this heading error the robot stops and turns
-CREEP_MPS = 0.15  # closing speed still allowed on contact: robots may nudge, never ram
-KEEP_RIGHT_M = 0.6  # gap below which a robot turns right around a robot not going its way
-KEEP_RIGHT_GAIN = 0.25  # that turn, as a share of the top turn rate
-SAME_WAY_COS = 0.5  # a robot whose heading is within 60 degrees of ours goes our way
-PROXIMITY_DECEL = 0.75  # share of the wheels' braking power planned for around robots and walls
-REACT_PERIODS = 1.0  # a command holds for this many control periods before the next can brake
-AHEAD_DEG = 70.0  # a robot within this angle of the direction of travel is in the way
-ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines
-SPEED_BOUND = 1.25  # no robot moves faster than this times the top speed, even when pushed
-TURN_FIRST_RADPS = 1.0  # a turn faster than this that must slow takes the wheels first, rad/s
-COS_TURN = math.cos(TURN_IN_PLACE_RAD)
-COS_AHEAD = math.cos(math.radians(AHEAD_DEG))
+ARC_MAX_RADIUS_M = 1e4  # flatter arcs are driven as straight lines (a numerical tolerance)
 
 
 def steer_speeds(cos_err, gap_m, corner2, align_gain, align_bias, brake2_mps2, sqrt):
@@ -45,7 +30,7 @@ def steer_speeds(cos_err, gap_m, corner2, align_gain, align_bias, brake2_mps2, s
         gap_m: distance to the waypoint.
         corner2: squared speed allowed when passing the waypoint (0 at the goal).
         align_gain, align_bias: the affine map from ``cos_err`` to speed, top speed when aligned
-            and 0 at ``TURN_IN_PLACE_RAD``.
+            and 0 at the turn-in-place angle (``[spatial.law] turn_in_place_deg``).
         brake2_mps2: twice the braking deceleration.
         sqrt: ``math.sqrt`` or ``np.sqrt``.
 
@@ -71,7 +56,7 @@ def stopping_time_s(v_mps, react_s, inv2a):
     return react_s + abs(v_mps) * inv2a
 
 
-def approach_cap_mps(share_m, tau, two_a, at, at2, sqrt):
+def approach_cap_mps(share_m, tau, two_a, at, at2, sqrt, creep_mps):
     """Top speed that covers at most ``share_m`` toward an obstacle at bearing cosine ``tau`` > 0
     when held for the reaction time T and then braked at a: sqrt(2 a s / tau + (a T)^2) - a T.
 
@@ -80,12 +65,13 @@ def approach_cap_mps(share_m, tau, two_a, at, at2, sqrt):
         tau: bearing cosine in the direction of travel (> 0).
         two_a, at, at2: 2 a (m/s^2), a T (m/s) and (a T)^2.
         sqrt: ``math.sqrt`` or ``np.sqrt``.
+        creep_mps: the closing speed still allowed on contact (``[spatial.law] creep_mps``).
 
     Returns:
-        The cap and the creep speed toward the obstacle, ``CREEP_MPS / tau``: the cap is at
+        The cap and the creep speed toward the obstacle, ``creep_mps / tau``: the cap is at
         least that (the caller takes the larger).
     """
-    return sqrt(share_m / tau * two_a + at2) - at, CREEP_MPS / tau
+    return sqrt(share_m / tau * two_a + at2) - at, creep_mps / tau
 
 
 def pair_share_m(gap_m, theirs_m, mine_m):
@@ -122,9 +108,10 @@ def control_body(z, h, v_mps, omega_radps, radius_m):
     return radius_m * (1j * h) + z, (v_mps - omega_radps * radius_m) * h
 
 
-def goes_our_way(th_rad, th_other_rad, cos):
-    """True where the other robot's heading is within 60 degrees of ours (``cos`` given)."""
-    return cos(th_rad - th_other_rad) > SAME_WAY_COS
+def goes_our_way(th_rad, th_other_rad, cos, same_way_cos):
+    """True where the other robot's heading is within arccos(``same_way_cos``) of ours (60
+    degrees by default, ``[spatial.law] same_way_cos``; ``cos`` given)."""
+    return cos(th_rad - th_other_rad) > same_way_cos
 
 
 def next_check_s(t_s: float, gap_m: float, closing_mps: float) -> float:

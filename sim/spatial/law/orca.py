@@ -13,14 +13,14 @@ one-dimensional program along h): the velocity it really drives is always an ORC
 (to within the slack below), so the reciprocal guarantee holds for what the wheels do, not
 only for the holonomic u it aims at.
 This replaces Alonso-Mora et al.'s (2010) tracking-error bound by an exact constraint; the
-radius is still enlarged by ``MARGIN_M`` for the one control period a command is held while the
+radius is still enlarged by ``margin_m`` for the one control period a command is held while the
 robot turns (an arc, not the straight line ORCA assumes).
 Held exactly, the one-dimensional program can freeze a robot: on a line (offset 0), heading a
 hair into it while u runs along it, it gets no forward speed, and its turn toward u,
 proportional to that hair, brings the heading ever nearer u but never across (the warehouse,
 market, seed 6: a robot stood 24 s on a shelf's line until its task failed). So a line the
-heading runs nearly along (``|n . h|`` below ``SLACK_SHALLOW``, about 5.7 degrees) may be closed
-on at ``ROBOT_SLACK_MPS`` (robots' lines) or ``WALL_SLACK_MPS`` (walls' and lanes'): at most 0.5
+heading runs nearly along (``|n . h|`` below ``slack_shallow``, about 5.7 degrees) may be closed
+on at ``robot_slack_mps`` (robots' lines) or ``wall_slack_mps`` (walls' and lanes'): at most 0.5
 mm a control period, and only by a robot driving almost parallel to the line.
 ``docs/avoidance.md`` has the measurements ("A robot frozen on a line"), and what a slack on
 every line did (a contact in the 20-robot circle swap).
@@ -29,21 +29,21 @@ Walls: a robot that no robot half-plane binds still has the obstacle lines (the 
 obstacle point, and the two sides of a single lane): where its plan leaves one of them,
 :func:`steer_walls` gives it the same two programs over those lines alone, so it slides along a
 wall instead of creeping into it (the law without avoidance lets a robot close on a wall at
-``CREEP_MPS``, and the warehouse's robots touched its shelves about three times an hour each).
+``creep_mps``, and the warehouse's robots touched its shelves about three times an hour each).
 
 Symmetry: when many preferred velocities point at one spot (robots swapping places on a
 circle) plain ORCA slows them all to a standstill there. A robot whose plan leaves a half-plane
-prefers its velocity turned ``RIGHT_BIAS_DEG`` to the right, a right-hand traffic rule that makes
+prefers its velocity turned ``right_bias_deg`` to the right, a right-hand traffic rule that makes
 every pair pass the same way round, so the crowd turns as a roundabout instead of jamming
 (``tests/sim/test_orca.py``: 20 robots swap a 5 m circle in 18.1 s, IR-SIM RVO 23.1 s, without a
 contact).
-``BIAS_ROOM_M`` limits it to robots whose body has more room than that to the nearest obstacle;
+``bias_room_m`` limits it to robots whose body has more room than that to the nearest obstacle;
 the default, ``-inf``, biases every such robot. 1.0 m was measured (``docs/avoidance.md``,
 "Probes measured and not merged"): faster in both scenarios, but head-on pairs in
 the warehouse's 2 m aisles, which then no longer agree on a side, lost tasks to jams.
 
-Crowds: a robot's program has the lines of its ``MAX_NEIGHBOURS`` nearest robots, 10 as in
-RVO2's examples, and never backs it up (``BACK_SHARE``, as the wall program since commit
+Crowds: a robot's program has the lines of its ``max_neighbours`` nearest robots, 10 as in
+RVO2's examples, and never backs it up (``back_share``, as the wall program since commit
 aad4a41). In the 20-robot circle swap (starts moved by 0.1 mm, seed 1) robots in a knot with
 9-11 others within 1.2 m had forward programs with no solution for most of a second, and the
 middle of what their lines left drove one backwards at 0.3 of the top speed and the robot
@@ -51,7 +51,7 @@ behind it forwards, into each other. With 6 neighbours and backing at up to 0.3 
 the top speed, 13 of 29 swaps from starts moved by about 0.1 mm touched (``mrta hardcase circle
 --jitter 1e-4 --seeds 29``; README, "Contacts in a dense crowd"); with 10 and none, none.
 
-The programs are small (at most ``MAX_NEIGHBOURS`` + 3 lines) and solved for every robot at once:
+The programs are small (at most ``max_neighbours`` + 3 lines) and solved for every robot at once:
 the optimum of a convex quadratic over half-planes and a disc is the preferred velocity, its
 projection on one line, the crossing of two lines or a point where a line meets the circle.
 :func:`solve` tries the first two kinds and enumerates every candidate (:func:`solve_enumerated`)
@@ -64,47 +64,86 @@ bit.
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.spatial import cKDTree
 
-from sim.spatial.law.drive import COS_TURN, HEADING_GAIN
+from sim.scenario import LawSpec, OrcaSpec
 
-TAU_S = 1.5  # time horizon toward other robots, s
-TAU_OBSTACLE_S = 0.6  # ... toward walls and obstacles, s
-MARGIN_M = 0.05  # added to the robot radius: a command is held one period while it turns, m
-WALL_GAP_M = 0.0  # ... and this toward walls and obstacles, the air the half-plane keeps, m
-LANE_AIR_M = 0.05  # air kept inside the free width of a robot's path segment, m
-LANE_NARROW_M = 1.0  # ... where that free width is narrower than this, m
-LANE_NEAR_M = 0.5  # ... and a wall or obstacle is this close to the robot's body, m
-MAX_NEIGHBOURS = 10  # the nearest robots within range that give a half-plane (RVO2's examples)
-BACK_SHARE = 0.0  # share of the top speed a robot may reverse at to honour its half-planes
-ROBOT_SLACK_MPS = 0.005  # the forward speed may close on a robot's line this fast, m/s ...
-WALL_SLACK_MPS = 0.005  # ... on a wall's or lane's line, m/s ...
-SLACK_SHALLOW = 0.1  # ... where the heading runs nearly along it: |n . h| below this
-RIGHT_BIAS_DEG = 30.0  # a robot with a binding half-plane prefers this much to the right
-KEEP_RIGHT = np.exp(-1j * np.radians(RIGHT_BIAS_DEG))  # that turn as a unit complex factor
-BIAS_ROOM_M = -np.inf  # ... only where the body has more room than this to an obstacle, m
+
+@dataclass(frozen=True, slots=True)
+class OrcaLaw:
+    """ORCA's settings as the functions below read them: ``[spatial.orca]`` (:class:`OrcaSpec`,
+    where each is explained) and the steering of ``[spatial.law]`` (heading gain, the cosine
+    of the turn-in-place angle). Build it with :meth:`of`."""
+
+    tau_s: float
+    tau_obstacle_s: float
+    margin_m: float
+    wall_gap_m: float
+    lane_air_m: float
+    lane_narrow_m: float
+    lane_near_m: float
+    max_neighbours: int
+    back_share: float
+    robot_slack_mps: float
+    wall_slack_mps: float
+    slack_shallow: float
+    keep_right: complex  # the right-hand bias as a unit complex factor
+    bias_room_m: float  # the bias only where the body has more room than this (-inf: anywhere)
+    heading_gain: float
+    cos_turn: float
+
+    @classmethod
+    def of(cls, orca: OrcaSpec | None = None, law: LawSpec | None = None) -> OrcaLaw:
+        """The law of a scenario's ``[spatial.orca]`` and ``[spatial.law]`` (defaults: the
+        bundled scenarios')."""
+        o = OrcaSpec() if orca is None else orca
+        lw = LawSpec() if law is None else law
+        return cls(
+            tau_s=o.tau_s,
+            tau_obstacle_s=o.tau_obstacle_s,
+            margin_m=o.margin_m,
+            wall_gap_m=o.wall_gap_m,
+            lane_air_m=o.lane_air_m,
+            lane_narrow_m=o.lane_narrow_m,
+            lane_near_m=o.lane_near_m,
+            max_neighbours=o.max_neighbours,
+            back_share=o.back_share,
+            robot_slack_mps=o.robot_slack_mps,
+            wall_slack_mps=o.wall_slack_mps,
+            slack_shallow=o.slack_shallow,
+            keep_right=np.exp(-1j * np.radians(o.right_bias_deg)),
+            bias_room_m=o.bias_room_m if o.bias_room_m > 0.0 else -np.inf,
+            heading_gain=lw.heading_gain,
+            cos_turn=math.cos(lw.turn_in_place_rad),
+        )
+
+
 _BIG = 1e9
+DEFAULT = OrcaLaw.of()  # the bundled scenarios' law (immutable)
 
 
-def orca_range_m(radius_m: float, v_max_mps: float) -> float:
-    """Centre distance beyond which no half-plane can bind within ``TAU_S``: two robots closing
+def orca_range_m(radius_m: float, v_max_mps: float, p: OrcaLaw = DEFAULT) -> float:
+    """Centre distance beyond which no half-plane can bind within ``tau_s``: two robots closing
     at twice the top speed for the horizon, plus their radii, m."""
-    return 2.0 * (radius_m + MARGIN_M) + 2.0 * v_max_mps * TAU_S
+    return 2.0 * (radius_m + p.margin_m) + 2.0 * v_max_mps * p.tau_s
 
 
-def neighbour_table(z: np.ndarray, rows: np.ndarray, range_m: float):
-    """The nearest ``MAX_NEIGHBOURS`` robots of each robot ``rows`` within ``range_m``.
+def neighbour_table(z: np.ndarray, rows: np.ndarray, range_m: float, max_neighbours: int = 10):
+    """The nearest ``max_neighbours`` robots of each robot ``rows`` within ``range_m``.
 
     Args:
         z: (m,) positions x + iy, m; rows: (n,) the robots that steer.
 
     Returns:
-        (n, K) neighbour indices and a (n, K) mask of the real ones (K <= ``MAX_NEIGHBOURS``),
+        (n, K) neighbour indices and a (n, K) mask of the real ones (K <= ``max_neighbours``),
         or None when no robot of ``rows`` has a neighbour within range.
     """
     m = len(z)
-    k = min(MAX_NEIGHBOURS, m - 1)
+    k = min(max_neighbours, m - 1)
     if k < 1 or not len(rows):
         return None
     if m <= 64:
@@ -270,22 +309,24 @@ def solve_enumerated(
     return cand[np.arange(len(pref)), best]
 
 
-def forward_speed(normal, offset, h, v_want, v_max: float, slack=0.0) -> np.ndarray:
+def forward_speed(
+    normal, offset, h, v_want, v_max: float, slack=0.0, p: OrcaLaw = DEFAULT
+) -> np.ndarray:
     """Speed v along each heading h nearest ``v_want`` with v h in every half-plane (less
     ``slack``, m/s, per line or for all, on the lines the heading runs nearly along: n . v h
-    >= c - slack where |n . h| < ``SLACK_SHALLOW``) and -``BACK_SHARE`` v_max <= v <= v_max
+    >= c - slack where |n . h| < ``slack_shallow``) and -``back_share`` v_max <= v <= v_max
     (0: never backwards); where none is, the middle of what the lines leave, which is a stop
     where the lines would have the robot back away."""
     a = (h[:, None] * normal.conj()).real  # a v >= c
-    c = offset - np.where(np.abs(a) < SLACK_SHALLOW, slack, 0.0)
+    c = offset - np.where(np.abs(a) < p.slack_shallow, slack, 0.0)
     pos, neg = a > 1e-9, a < -1e-9
     lo = np.where(pos, c / np.where(pos, a, 1.0), -np.inf).max(axis=1)
     hi = np.where(neg, c / np.where(neg, a, 1.0), np.inf).min(axis=1)
-    lo = np.maximum(lo, -BACK_SHARE * v_max)
+    lo = np.maximum(lo, -p.back_share * v_max)
     hi = np.minimum(hi, v_max)
     ok = lo <= hi
     v = np.minimum(np.maximum(v_want, lo), hi)
-    middle = np.minimum(np.maximum(0.5 * (lo + hi), -BACK_SHARE * v_max), v_max)
+    middle = np.minimum(np.maximum(0.5 * (lo + hi), -p.back_share * v_max), v_max)
     return np.where(ok, v, middle)
 
 
@@ -302,6 +343,7 @@ def avoid(
     dt_s: float,
     to_obstacle,
     lanes=None,
+    p: OrcaLaw = DEFAULT,
 ):
     """ORCA commands for the robots ``rows`` whose planned velocity leaves an ORCA half-plane.
 
@@ -315,33 +357,34 @@ def avoid(
         to_obstacle: maps (k,) positions to the nearest obstacle point, x + iy from each.
         lanes: maps (k,) positions and robot indices to the unit left of each one's path
             segment and its room left and right within the segment's free width
-            (``PathFollower.lane_room``); where that width is below ``LANE_NARROW_M`` and an
-            obstacle within ``LANE_NEAR_M`` of the body (a single lane, here), two more
-            half-planes keep it inside, less ``LANE_AIR_M``, over ``TAU_OBSTACLE_S``. None:
+            (``PathFollower.lane_room``); where that width is below ``lane_narrow_m`` and an
+            obstacle within ``lane_near_m`` of the body (a single lane, here), two more
+            half-planes keep it inside, less ``lane_air_m``, over ``tau_obstacle_s``. None:
             only the nearest obstacle point.
+        p: the law's settings.
 
     Returns:
         None when no half-plane binds; else the robots whose plan is replaced and their
         (v, omega) commands, before the wheel limits.
     """
-    reach = orca_range_m(radius_m, v_max)
-    table = neighbour_table(z, rows, reach)
+    reach = orca_range_m(radius_m, v_max, p)
+    table = neighbour_table(z, rows, reach, p.max_neighbours)
     if table is None:
         return None
     idx, mask = table
     keep = mask.any(axis=1)
     rows, idx, mask = rows[keep], idx[keep], mask[keep]
-    normal, offset = pair_planes(z, vel, rows, idx, mask, steering, radius_m, dt_s)
+    normal, offset = pair_planes(z, vel, rows, idx, mask, steering, radius_m, dt_s, p)
     plan = v_want[keep] * h[rows]
     bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
     if not bind.any():
         return None
     pref = pref[keep][bind]
-    args = (normal[bind], offset[bind], pref, radius_m, v_max, to_obstacle, lanes)
+    args = (normal[bind], offset[bind], pref, radius_m, v_max, to_obstacle, lanes, p)
     return steer_rows(z, h, rows[bind], *args)
 
 
-def pair_planes(z, vel, rows, idx, mask, steering, radius_m: float, dt_s: float):
+def pair_planes(z, vel, rows, idx, mask, steering, radius_m: float, dt_s: float, p=DEFAULT):
     """The half-planes of robots ``rows`` against their neighbours ``idx`` (``mask``: the real
     ones; the others get a line that never binds), as :func:`half_planes` returns them."""
     zi, vi = z[rows], vel[rows]
@@ -351,64 +394,66 @@ def pair_planes(z, vel, rows, idx, mask, steering, radius_m: float, dt_s: float)
         vi[:, None] - vel[idx],
         vi[:, None],
         share,
-        2.0 * (radius_m + MARGIN_M),
-        1.0 / TAU_S,
+        2.0 * (radius_m + p.margin_m),
+        1.0 / p.tau_s,
         1.0 / dt_s,
     )
     return np.where(mask, normal, 1.0), np.where(mask, offset, -_BIG)
 
 
-def wall_lines(z, rows, radius_m, to_obstacle, lanes=None, ob=None):
+def wall_lines(z, rows, radius_m, to_obstacle, lanes=None, ob=None, p: OrcaLaw = DEFAULT):
     """The half-planes that keep robots ``rows`` off the obstacles: the nearest obstacle point
-    (horizon ``TAU_OBSTACLE_S``, air ``WALL_GAP_M``) and, with ``lanes``, the two sides of a
+    (horizon ``tau_obstacle_s``, air ``wall_gap_m``) and, with ``lanes``, the two sides of a
     single lane (as :func:`avoid` says): (n, 1) or (n, 3) normals and offsets. ``ob``: the
     nearest obstacle points when the caller has them already (``to_obstacle(z[rows])``)."""
-    r_eff = radius_m + MARGIN_M
+    r_eff = radius_m + p.margin_m
     zi = z[rows]
     ob = to_obstacle(zi) if ob is None else ob
-    on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
+    on, oc = obstacle_plane(ob, r_eff + p.wall_gap_m, 1.0 / p.tau_obstacle_s)
     normal, offset = on[:, None], oc[:, None]
     if lanes is not None:
         left, room_l, room_r = lanes(zi, rows)
-        real = (np.abs(left) > 0.5) & (room_l + room_r < LANE_NARROW_M)
-        real &= np.abs(ob) < radius_m + LANE_NEAR_M  # ... and between walls here, not past them
+        real = (np.abs(left) > 0.5) & (room_l + room_r < p.lane_narrow_m)
+        real &= np.abs(ob) < radius_m + p.lane_near_m  # ... and between walls here, not past them
         lane_n = np.column_stack([np.where(real, -left, 1.0), np.where(real, left, 1.0)])
-        room = np.column_stack([room_l, room_r]) - LANE_AIR_M
-        lane_c = np.where(real[:, None] & np.isfinite(room), -room / TAU_OBSTACLE_S, -_BIG)
+        room = np.column_stack([room_l, room_r]) - p.lane_air_m
+        lane_c = np.where(real[:, None] & np.isfinite(room), -room / p.tau_obstacle_s, -_BIG)
         normal = np.concatenate([normal, lane_n], axis=1)
         offset = np.concatenate([offset, lane_c], axis=1)
     return normal, offset
 
 
-def command(normal, offset, pref, hi, v_max, slack=0.0):
+def command(normal, offset, pref, hi, v_max, slack=0.0, p: OrcaLaw = DEFAULT):
     """(v, omega) of robots with headings ``hi`` under the half-planes ``normal``, ``offset``:
     the velocity u nearest ``pref`` (:func:`solve`), the turn toward it and the forward speed
     along the heading that keeps every half-plane, less ``slack`` (:func:`forward_speed`)."""
     u = solve(normal, offset, pref, v_max)
     local = u * hi.conj()
     err = np.arctan2(local.imag, local.real)
-    align = np.clip((np.cos(err) - COS_TURN) / (1.0 - COS_TURN), 0.0, 1.0)
-    v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max, slack)
-    return v, err * HEADING_GAIN
+    align = np.clip((np.cos(err) - p.cos_turn) / (1.0 - p.cos_turn), 0.0, 1.0)
+    v = forward_speed(normal, offset, hi, np.abs(u) * align, v_max, slack, p)
+    return v, err * p.heading_gain
 
 
-def steer_rows(z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, lanes=None):
+def steer_rows(
+    z, h, rows, normal, offset, pref, radius_m, v_max, to_obstacle, lanes=None, p=DEFAULT
+):
     """The commands of robots ``rows`` whose plan leaves one of their half-planes (``normal``,
     ``offset``: (n, K) from :func:`pair_planes`): the obstacle and lane half-planes added
     (:func:`wall_lines`), the velocity (:func:`solve`) and the forward speed along the heading
-    (as :func:`avoid`). The preferred velocity is turned right (``KEEP_RIGHT``) where the body
-    has more than ``BIAS_ROOM_M`` of room to the nearest obstacle (everywhere, by default)."""
+    (as :func:`avoid`). The preferred velocity is turned right (``keep_right``) where the body
+    has more than ``bias_room_m`` of room to the nearest obstacle (everywhere, by default)."""
     ob = to_obstacle(z[rows])
-    on, oc = wall_lines(z, rows, radius_m, to_obstacle, lanes, ob)
-    slack = np.repeat([ROBOT_SLACK_MPS, WALL_SLACK_MPS], [normal.shape[1], on.shape[1]])
+    on, oc = wall_lines(z, rows, radius_m, to_obstacle, lanes, ob, p)
+    slack = np.repeat([p.robot_slack_mps, p.wall_slack_mps], [normal.shape[1], on.shape[1]])
     normal = np.concatenate([normal, on], axis=1)
     offset = np.concatenate([offset, oc], axis=1)
-    bias = np.where(np.abs(ob) - radius_m > BIAS_ROOM_M, KEEP_RIGHT, 1.0)
-    v, w = command(normal, offset, pref * bias, h[rows], v_max, slack)
+    bias = np.where(np.abs(ob) - radius_m > p.bias_room_m, p.keep_right, 1.0)
+    v, w = command(normal, offset, pref * bias, h[rows], v_max, slack, p)
     return rows, v, w
 
 
-def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=None):
+def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=None, p=DEFAULT):
     """Walls as ORCA lines for robots that no robot half-plane binds: of robots ``rows`` (those
     that steer themselves and could be within reach of a wall, ``sim.spatial.control.avoidance``),
     the ones whose plan ``v_plan`` along the heading leaves an obstacle or lane half-plane
@@ -428,11 +473,11 @@ def steer_walls(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes=No
         The robots whose command this sets and their (v, omega) commands, before the wheel
         limits; None when no obstacle half-plane binds.
     """
-    normal, offset = wall_lines(z, rows, radius_m, to_obstacle, lanes)
+    normal, offset = wall_lines(z, rows, radius_m, to_obstacle, lanes, p=p)
     plan = v_plan * h[rows]
     bind = (offset - (plan[:, None] * normal.conj()).real).max(axis=1) > 1e-9
     if not bind.any():
         return None
     hi, cap = h[rows[bind]], np.abs(v_plan[bind])
-    v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max, WALL_SLACK_MPS)
+    v, w = command(normal[bind], offset[bind], pref[bind], hi, v_max, p.wall_slack_mps, p)
     return rows[bind], np.minimum(np.maximum(v, 0.0), cap), w

@@ -51,13 +51,13 @@ class DistanceField:
     (``SHARED``, a :class:`FieldCache`).
     """
 
-    # Candidate lists get table codes of their own up to the table's range (uint16), the rest
-    # are filed by key; lists are digested this many (cell, site) pairs at a time. Neither
-    # changes a distance; tests lower both to exercise the keyed lists and several passes.
-    max_groups = 1 << 16
-    pairs_per_pass = 1 << 16
-
-    def __init__(self, planner, sites: np.ndarray) -> None:
+    def __init__(
+        self, planner, sites: np.ndarray, max_groups: int = 1 << 16, pairs_per_pass: int = 1 << 16
+    ) -> None:
+        # Candidate lists get table codes of their own up to the table's range (uint16), the
+        # rest are filed by key; lists are digested this many (cell, site) pairs at a time.
+        # Neither changes a distance; tests lower both to exercise the keyed lists and passes.
+        self.max_groups, self.pairs_per_pass = max_groups, pairs_per_pass
         # a shallow copy: GridPlanner.set_obstacles rebinds the planner's geometry, and the
         # field, which other planners may share, must keep the geometry it was built for
         self.planner = copy.copy(planner)
@@ -72,9 +72,10 @@ class DistanceField:
         return small and grid.nx * grid.ny * n_sites < 2**31
 
     @classmethod
-    def build(cls, planner, sites: np.ndarray) -> DistanceField:
-        """Precompute the table for ``sites`` (k, 2) in ``planner``'s arena."""
-        field = cls(planner, sites)
+    def build(cls, planner, sites: np.ndarray, **limits: int) -> DistanceField:
+        """Precompute the table for ``sites`` (k, 2) in ``planner``'s arena (``limits``:
+        ``max_groups``, ``pairs_per_pass`` as the constructor takes them)."""
+        field = cls(planner, sites, **limits)
         field._build()
         return field
 

@@ -1,13 +1,13 @@
 """Path following for arrays of robots, and how close a robot may come to the obstacles.
 
 Each robot aims at the current waypoint of its planned path and switches to the next when it is
-within ``WAYPOINT_SWITCH_M`` of it or beyond the waypoint's normal line. A robot pushed off its
+within ``waypoint_switch_m`` of it or beyond the waypoint's normal line. A robot pushed off its
 path (by other robots, or going round them) may leave the planner's clearance: the straight line
 from where it is to the waypoint could then cut an obstacle corner. A robot at lateral offset c
 from the segment into waypoint T that heads straight for T stays within |c| of the segment, so it
 cannot touch an obstacle while |c| is below the segment's distance to the obstacles on that side
 less the robot radius. That *free width* is computed per segment and side when a path is set; a
-robot pushed out farther steers for the path ``LOOKAHEAD_M`` ahead instead, and the controller
+robot pushed out farther steers for the path ``lookahead_m`` ahead instead, and the controller
 caps its speed toward the nearest obstacle (``to_obstacle``, ``DiffDriveController.wall_cap``) as
 toward a robot that stands still, until it is back within the free width. A robot not yet
 heading for T (turning in, veering round another robot) drives along its heading, not toward T,
@@ -28,10 +28,9 @@ from itertools import pairwise
 
 import numpy as np
 
+from sim.scenario import FollowSpec
 from sim.spatial.navigation.buckets import EDGE_CELLS_MIN_EDGES, BoxBuckets, EdgeCells, typical_size
 
-WAYPOINT_SWITCH_M = 0.2  # aim at the next waypoint once this close to the current one
-LOOKAHEAD_M = 1.5  # a robot pushed off its path steers for the path this far ahead
 SCALAR_FREE_MAX = 48  # free widths of fewer (segment, obstacle edge) pairs in plain Python
 CELLS_FROM = 2048  # to_obstacle looks up grid cells for more (point, edge) pairs than this
 FREE_CHUNK = 96  # segments per array pass of set_paths (about as quick as any, bounded memory)
@@ -50,11 +49,22 @@ class PathFollower:
         obstacles: convex polygons (V, 2) robots must not touch, arena walls included (a wall
             may be given as a two-point polygon, a segment).
         radius_m: robot radius.
+        cap_m: a side step's free widths are computed this far, then exactly on demand.
+        follow: the waypoint switch and look-ahead distances (``[spatial.follow]``).
     """
 
     def __init__(
-        self, m: int, v_max_mps: float, obstacles=(), radius_m: float = 0.0, cap_m: float = np.inf
+        self,
+        m: int,
+        v_max_mps: float,
+        obstacles=(),
+        radius_m: float = 0.0,
+        cap_m: float = np.inf,
+        follow: FollowSpec | None = None,
     ) -> None:
+        follow = FollowSpec() if follow is None else follow
+        self.switch_m = follow.waypoint_switch_m  # aim at the next waypoint this close, m
+        self.lookahead_m = follow.lookahead_m  # off its path, steer for it this far ahead, m
         self.v_max_mps = v_max_mps
         self.radius_m = radius_m
         self.cap_m = cap_m
@@ -188,7 +198,7 @@ class PathFollower:
         self.unit_c_[j] = seg.conjugate() / length if length > 0.0 else 0.0
         self.after_[j], self.corner2_[j] = self.after_m[j, idx], self.corner2[j, idx]
         more = idx < self.last[j]
-        self.switch_[j] = WAYPOINT_SWITCH_M if more else -1.0
+        self.switch_[j] = self.switch_m if more else -1.0
         self.beyond_[j] = 0.0 if more else -np.inf
         self.free_[0, j], self.free_[1, j] = -self.free_m[j, idx, 0], self.free_m[j, idx, 1]
         self.capped_[:, j] = self.capped_m[j, idx]
@@ -253,7 +263,7 @@ class PathFollower:
         self.unit_c_[rows] = np.where(length > 0.0, seg.conj() / np.maximum(length, 1e-12), 0.0)
         self.after_[rows], self.corner2_[rows] = self.after_m[rows, idx], self.corner2[rows, idx]
         more = idx < self.last[rows]
-        self.switch_[rows] = np.where(more, WAYPOINT_SWITCH_M, -1.0)
+        self.switch_[rows] = np.where(more, self.switch_m, -1.0)
         self.beyond_[rows] = np.where(more, 0.0, -np.inf)
         left, right = self.free_m[rows, idx, 0], self.free_m[rows, idx, 1]
         self.free_[0, rows], self.free_[1, rows] = -left, right
@@ -292,7 +302,9 @@ class PathFollower:
         aim, rows = delta, None
         if np.count_nonzero(off):  # straight for the waypoint could touch an obstacle
             rows = off.nonzero()[0]
-            back = np.minimum(np.maximum(proj.real[rows] - LOOKAHEAD_M, 0.0), self.seg_m_[rows])
+            back = np.minimum(
+                np.maximum(proj.real[rows] - self.lookahead_m, 0.0), self.seg_m_[rows]
+            )
             aim = delta.copy()
             aim[rows] -= back * self.unit_c_[rows].conj()
         return aim, gap, gap + self.after_, self.corner2_, rows

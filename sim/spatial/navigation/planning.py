@@ -30,7 +30,7 @@ from sim.spatial.navigation.distfield import SHARED, DistanceField
 
 _TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
 _SNAP_M = 1e-6  # how far past a boundary a point pushed out of an obstacle lands
-_CHUNK = 1 << 20  # (pair, edge) entries per vectorised visibility chunk
+CHUNK = 1 << 20  # (pair, edge) entries per vectorised visibility chunk
 _FIRST_BATCH = 8  # vertices tested per query in the first round (then 4x more each round)
 FIELD_MIN_ROBOTS = 256  # distances for this many positions or more come from the field
 LOCAL_MIN_VERTICES = 256  # path_around in an arena with more vertices plans in a local box ...
@@ -90,10 +90,20 @@ class GridPlanner:
 
     Args:
         spatial: the arena; obstacles are grown by ``drive.radius_m + clearance_m``.
+        local_min_vertices: :meth:`path_around` in an arena with more obstacle vertices than
+            this plans in a local box (the same path, quicker in a large arena).
+        chunk: (pair, edge) entries per vectorised visibility chunk (bounds the temporaries;
+            the result does not depend on it).
     """
 
-    def __init__(self, spatial: SpatialSpec) -> None:
+    def __init__(
+        self,
+        spatial: SpatialSpec,
+        local_min_vertices: int = LOCAL_MIN_VERTICES,
+        chunk: int = CHUNK,
+    ) -> None:
         self.spatial = spatial
+        self.local_min_vertices, self.chunk = local_min_vertices, chunk
         self.inflate_m = spatial.drive.radius_m + spatial.clearance_m
         self.tol_m = _TOL_M
         lo = self.inflate_m
@@ -242,7 +252,7 @@ class GridPlanner:
         if not len(bb_lo) or not len(a):
             return out
         lo, hi = np.minimum(a, b), np.maximum(a, b)
-        step = max(1, _CHUNK // (len(bb_lo) * self.normals_.shape[1]))
+        step = max(1, self.chunk // (len(bb_lo) * self.normals_.shape[1]))
         for s0 in range(0, len(a), step):
             sl = slice(s0, s0 + step)
             meet = lo[sl, 0, None] < bb_hi[None, :, 0]
@@ -539,7 +549,7 @@ class GridPlanner:
         it first. For the rare re-plan of a robot in a deadlock: it builds a planner of its own
         (a new visibility graph, whose pairs of obstacle vertices are looked up in this one's
         and tested against the robots only), milliseconds, and caches nothing; in an arena of
-        more than ``LOCAL_MIN_VERTICES`` obstacle vertices only within ``LOCAL_MARGIN_M`` of the
+        more than ``local_min_vertices`` obstacle vertices only within ``LOCAL_MARGIN_M`` of the
         start, the goal and the robots (a path that would leave that box is not found).
         ``reuse=False`` builds the whole graph afresh (the same graph; ``mrta bench`` times
         both)."""
@@ -549,11 +559,9 @@ class GridPlanner:
         corner = radius_m / np.cos(np.pi / 8) * np.exp(1j * (np.pi / 8 + np.pi / 4 * np.arange(8)))
         rings = robots[:, None] + corner[None, :]
         octagons = [np.column_stack([r.real, r.imag]) for r in rings]
-        other = GridPlanner.__new__(GridPlanner)
-        other.spatial, other.inflate_m, other.tol_m = self.spatial, self.inflate_m, self.tol_m
-        other.lo_, other.hi_, other.box_ = self.lo_, self.hi_, self.box_
+        other = self.empty_like()
         obstacles = list(self.obstacles)
-        if len(self.vertices_) > LOCAL_MIN_VERTICES:  # a large arena: plan in a box round it
+        if len(self.vertices_) > self.local_min_vertices:  # a large arena: plan in a box round it
             pts = np.vstack([np.reshape(start_xy, (1, 2)), np.reshape(goal_xy, (1, 2))])
             pts = np.vstack([pts, np.column_stack([robots.real, robots.imag])])
             lo = np.maximum(pts.min(axis=0) - LOCAL_MARGIN_M, self.lo_)
@@ -565,6 +573,15 @@ class GridPlanner:
             obstacles = [o for o, keep in zip(obstacles, near.tolist(), strict=True) if keep]
         other.set_obstacles(obstacles + octagons, known=(self, len(obstacles)) if reuse else None)
         return other.path(start_xy, goal_xy)
+
+    def empty_like(self) -> GridPlanner:
+        """A planner of the same arena and settings with no obstacles yet (give it some with
+        :meth:`set_obstacles`): what :meth:`path_around` plans in, without building anything."""
+        other = GridPlanner.__new__(GridPlanner)
+        other.spatial, other.inflate_m, other.tol_m = self.spatial, self.inflate_m, self.tol_m
+        other.lo_, other.hi_, other.box_ = self.lo_, self.hi_, self.box_
+        other.local_min_vertices, other.chunk = self.local_min_vertices, self.chunk
+        return other
 
     def side_step(
         self, xy: complex, other: complex, travel: complex, step_m: float, avoid: np.ndarray

@@ -44,6 +44,8 @@ SECTIONS = {
     "faults": FaultSpec,
 }
 TOP_SECTIONS = ("scenario", "robots", *SECTIONS, "spatial")
+SCENARIO_KEYS = ("name", "description", "task_types", "exec_time_s")  # [scenario]
+ROBOT_KEYS = ("name", "capabilities", "cost", "start", "heading_deg")  # each [[robots]]
 
 
 def bundled_toml(folder: str = "") -> list[str]:
@@ -130,7 +132,7 @@ def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str 
 def _build(doc: dict[str, Any], source: str, sha256: str) -> Scenario:
     check_table(doc, "", TOP_SECTIONS)
     head = table(doc, "scenario", required=True)
-    check_table(head, "scenario", ("name", "description", "task_types", "exec_time_s"))
+    check_table(head, "scenario", SCENARIO_KEYS)
     name = string(head, "scenario.name")
     string(head, "scenario.description", optional=True)
     types = str_list(head, "scenario.task_types")
@@ -169,7 +171,7 @@ def _robots(doc: dict, types: list[str]) -> tuple[list[RobotSpec], list[list[Any
         where = f"robots[{j}]"
         if not isinstance(rd, dict):
             fail(where, "must be a table")
-        check_table(rd, where, ("name", "capabilities", "cost", "start", "heading_deg"))
+        check_table(rd, where, ROBOT_KEYS)
         rname = string(rd, f"{where}.name")
         caps = str_list(rd, f"{where}.capabilities")
         for c in caps:
@@ -279,7 +281,10 @@ def str_list(doc: dict, path: str) -> list[str]:
 
 
 __all__ = [
+    "ROBOT_KEYS",
+    "SCENARIO_KEYS",
     "SECTIONS",
+    "TOP_SECTIONS",
     "ScenarioError",
     "bundled_names",
     "bundled_toml",

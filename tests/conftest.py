@@ -1,4 +1,9 @@
-"""Shared fixtures: small hand-built scenarios."""
+"""Shared fixtures: the paper scenario (whole and short), a tiny hand-built one, a synthetic
+trajectory, a small sweep file; and the 'measured by the tests' lines printed after the summary.
+
+Small worlds and the helpers that act on them are in ``tests/worlds.py``; fixtures of one
+folder in that folder's ``conftest.py`` (``tests/sim/render``, ``tests/allocation``).
+"""
 
 from __future__ import annotations
 
@@ -25,6 +30,16 @@ def small_paper(paper) -> Scenario:
     return dataclasses.replace(paper, stream=stream, experience=exp)
 
 
+@pytest.fixture(scope="module")
+def synth():
+    """A synthetic trajectory (``scenarios.bench.synthetic``): 10 robots, 60 s, 20 tasks."""
+    import numpy as np
+
+    from scenarios.bench.synthetic import synthetic_trajectory
+
+    return synthetic_trajectory(np.random.default_rng(7), robots=10, seconds=60.0, tasks=20)
+
+
 @pytest.fixture()
 def tiny() -> Scenario:
     """Three robots, two types: R1 {A}, R2 {A, B}, R3 {B}."""
@@ -38,6 +53,16 @@ def tiny() -> Scenario:
             n_sets=4, rounds_per_set=5, learn_sets=3, test_sets=2, batch_min=1, batch_max=3
         ),
     )
+
+
+@pytest.fixture()
+def abstract_file(tmp_path):
+    """The small sweep file of the abstract world (``tests.worlds.ABSTRACT_SWEEP``), written."""
+    from tests.worlds import ABSTRACT_SWEEP
+
+    path = tmp_path / "abstract.toml"
+    path.write_text(ABSTRACT_SWEEP)
+    return path
 
 
 REPORT_KEY = pytest.StashKey[list]()

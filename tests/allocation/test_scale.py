@@ -142,6 +142,7 @@ def test_market_protocol_at_scale_keeps_every_invariant(scale):
     assert (assigned >= 0).mean() > 0.95  # 40 rounds are far too few to load 1000 robots
 
 
+@pytest.mark.slow
 def test_bench_alloc_reports_every_size_and_allocator():
     from learning import ALLOCATORS
 

@@ -1,8 +1,9 @@
 """Fixed-seed golden runs: the metrics and trajectories a behaviour-preserving change keeps.
 
 ``python tests/golden/cases.py`` rewrites ``golden.json``; do that only for a change that is
-meant to alter results, and say so in its commit message. The test (``tests/test_golden.py``)
-recomputes every case and compares it with the file bit for bit.
+meant to alter results, and say so in its commit message. The test
+(``tests/golden/test_golden.py``) recomputes every case and compares it with the file bit for
+bit.
 
 The same on every x86-64 machine: both the writer and the test run the cases in a child Python
 (:func:`compute_portable`) whose numpy uses only the SIMD kernels of its baseline

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import functools
 
-import scenarios.experiments.protocol as protocol
+import learning.assembly as assembly
 import sim
 
 
@@ -13,15 +13,16 @@ import sim
 def forced_control(path: str | None):
     """Run the block with new pymunk worlds on the ``scalar`` or ``array`` control path.
 
-    The runs build their world with ``sim.make_world``; inside the block that call passes
+    The runs build their world with ``sim.make_world`` (in ``learning.assembly``); inside the
+    block that call passes
     ``control=path`` to the world. ``None`` leaves the choice to the team size.
     """
     if path is None:
         yield
         return
-    old = protocol.make_world
-    protocol.make_world = functools.partial(sim.make_world, control=path)
+    old = assembly.make_world
+    assembly.make_world = functools.partial(sim.make_world, control=path)
     try:
         yield
     finally:
-        protocol.make_world = old
+        assembly.make_world = old

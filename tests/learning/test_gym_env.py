@@ -85,7 +85,7 @@ def test_reward_follows_spec(env, paper):
     """A round where everything is taken pays reward_high per high and reward_low per low."""
     obs, _ = env.reset(seed=1)
     _, reward, *_ = env.step(market_policy(env.unwrapped, obs))
-    info = env.unwrapped._info()
+    info = env.unwrapped.rounds.info()
     p = paper.learning
     assert (
         reward

@@ -156,6 +156,7 @@ def paired_runs():
     }
 
 
+@pytest.mark.slow
 def test_ql_raises_high_priority_completion_and_lowers_low(paired_runs):
     def col(name, prio):
         return np.array([r["completion"]["overall"][prio] for r in paired_runs[name]])
@@ -166,6 +167,7 @@ def test_ql_raises_high_priority_completion_and_lowers_low(paired_runs):
     assert low_gain.mean() < 0 and stats.ttest_1samp(low_gain, 0.0).pvalue < 0.01
 
 
+@pytest.mark.slow
 def test_expt_shrinks_the_space_and_keeps_coverage(paired_runs, paper):
     k = paper.experience.coverage_k
     for run in paired_runs["expt"]:

@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from learning.registry import AllocatorError, allocator_class, available
-from scenarios.cli import main
+from learning.registry import allocator_class, available
 from scenarios.experiments.compare import compare
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "allocators.md"
+
+
 SHORT = (("stream.n_sets", 6), ("stream.learn_sets", 4), ("stream.test_sets", 3))
 
 
@@ -71,24 +72,3 @@ def test_the_builtins_are_registered_as_entry_points():
     eps = installed()
     for name, cls in BUILTIN_ALLOCATORS.items():
         assert eps.get(name) == f"{cls.__module__}:{cls.__name__}"
-
-
-@pytest.mark.parametrize(
-    "name, message",
-    [
-        ("grredy", "did you mean 'greedy'"),
-        ("nosuchmodule:X", "cannot import 'nosuchmodule'"),
-        ("json:Nope", "json has no 'Nope'"),
-        ("json:JSONDecoder", "reset, begin_set, allocate"),
-        ("json", "unknown allocator 'json'"),
-    ],
-)
-def test_bad_allocator_names_are_one_clear_line(name, message, capsys, tmp_path):
-    with pytest.raises(AllocatorError, match=re.escape(message)):
-        allocator_class(name)
-    with pytest.raises(SystemExit) as stop:  # argparse: one line, exit code 2
-        main(["run", "paper", "--allocator", name, "--out", str(tmp_path / "o")])
-    assert stop.value.code == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and message in err
-    assert not (tmp_path / "o").exists()

@@ -142,6 +142,7 @@ def test_trained_through_pettingzoo_equals_builtin_allocators(protocol_env, seed
     assert untrained.completion == market["completion"]["overall"]
 
 
+@pytest.mark.slow
 def test_training_raises_high_priority_completion_over_always_bid(protocol_env):
     seeds = range(5)
     trained = [play_protocol(protocol_env, s) for s in seeds]

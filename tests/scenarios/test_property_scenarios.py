@@ -6,6 +6,7 @@ import copy
 import math
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -118,12 +119,14 @@ def run_briefly(scenario):
         assert ids.size == int(np.isin(stream.set_index, tested).sum()), name
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(valid_docs())
 def test_valid_scenarios_load_and_run(doc):
     run_briefly(parse_scenario(doc))
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(mutated_docs())
 def test_mutated_scenarios_load_and_run_or_fail_cleanly(doc):

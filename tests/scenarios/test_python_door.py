@@ -3,19 +3,23 @@
 A scenario built in Python, a run's overrides, an environment's keyword arguments and a sweep's
 grid all go through the specs' own checks (``sim.scenario``). :data:`CASES` holds the problems a
 file cannot express (a scenario built in Python with the wrong types) and the other doors; the
-corpus test (``test_corpus.py``) counts these lines with the corpus files' when it asks that
-every check of the specs has a case.
-"""
+last test counts these lines with the corpus files' (``tests/scenarios/corpus/``) when it asks
+that every check of the specs has a case."""
 
 from __future__ import annotations
 
+import ast
 import dataclasses
+import os
+import re
 from collections.abc import Callable
+from pathlib import Path
 
 import gymnasium as gym
 import pytest
 
 import learning  # noqa: F401  (registers mrta/Allocation-v0)
+from scenarios import loader
 from scenarios.loader import load_scenario
 from scenarios.protocol import RunSpec, execute
 from sim import make_world
@@ -26,8 +30,12 @@ from sim.scenario import (
     ScenarioError,
     SpatialSpec,
     StreamSpec,
+    core,
+    schema,
+    spatial,
 )
 from sim.scenario.overrides import apply_overrides
+from sim.spatial import layout
 
 
 def tiny(**changes) -> Scenario:
@@ -202,3 +210,63 @@ def test_a_nested_setting_is_overridden_and_the_rest_kept():
     assert new.spatial.orca.tau_s == 2.0 and new.spatial.avoidance == "none"
     assert dataclasses.replace(new.spatial.orca, tau_s=sc.spatial.orca.tau_s) == sc.spatial.orca
     assert new.spatial.obstacles == sc.spatial.obstacles
+
+
+CORPUS = sorted((Path(__file__).parent / "corpus").glob("*.toml"))
+
+
+def pattern(node: ast.expr) -> str:
+    """Regex for the text a message argument can produce: literal parts exact, the rest any."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return re.escape(node.value)
+    if isinstance(node, ast.JoinedStr):
+        return "".join(pattern(part) for part in node.values)
+    return ".*?"
+
+
+def loader_checks() -> list[tuple[str, str]]:
+    """Every validation check of the loader: (where, regex of the line it gives).
+
+    A check is a call of ``fail(key, problem)`` in the loader (``scenarios/loader.py``), the
+    specs that check themselves (``sim/scenario/``) and the layout check
+    (``sim/spatial/layout.py``).
+    """
+    out = []
+    for module in (loader, schema, core, spatial, layout):
+        path = Path(module.__file__)
+        for func in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(func, ast.FunctionDef):
+                continue
+            for call in ast.walk(func):
+                if not (
+                    isinstance(call, ast.Call)
+                    and isinstance(call.func, ast.Name)
+                    and call.func.id == "fail"
+                ):
+                    continue
+                key, problem = call.args[:2]
+                where = f"{path.name}:{call.lineno} ({func.name})"
+                out.append((where, f": {pattern(key)}: {pattern(problem)}"))
+    return out
+
+
+def corpus_lines() -> list[str]:
+    lines = []
+    for path in CORPUS:
+        with pytest.raises(ScenarioError) as info:
+            loader.load_scenario(path)
+        lines.append(str(info.value))
+    return lines
+
+
+@pytest.mark.skipif(
+    "MUTANT_UNDER_TEST" in os.environ, reason="reads the loader's source, which mutmut rewrites"
+)
+def test_every_loader_check_has_a_corpus_file(tmp_path):
+    """Every check is reached by a corpus file, or (a problem no file can express, a door other
+    than a file) by a case of :data:`CASES` above."""
+    checks = loader_checks()
+    assert len(checks) >= 60  # the walk finds the checks (a refactor that hides them fails here)
+    lines = corpus_lines() + [f"python: {line}" for line in door_lines(tmp_path)]
+    missing = [w for w, rx in checks if not any(re.search(rx, line) for line in lines)]
+    assert not missing, f"loader checks without a file in tests/scenarios/corpus/: {missing}"

@@ -132,20 +132,28 @@ def test_missing_site_list_for_a_type():
 @pytest.mark.parametrize(
     "key, value, needle",
     [
-        ("dt_s", 0.0, "spatial.dt_s: must be in (0, 0.05] s, got 0.0"),
-        ("dt_s", -1.0, "spatial.dt_s: must be in (0, 0.05] s, got -1.0"),
+        ("dt_s", 0.0, "spatial.dt_s: must be in [0.0001, 0.05] s, got 0.0"),
+        ("dt_s", -1.0, "spatial.dt_s: must be in [0.0001, 0.05] s, got -1.0"),
         ("dt_s", float("nan"), "spatial.dt_s: must be finite"),
         ("width_m", float("inf"), "spatial.width_m: must be finite"),
         ("control_hz", 1000.0, "spatial.control_hz: control (1000 Hz) cannot run faster"),
         ("arrive_tol_m", 0.0, "spatial.arrive_tol_m: must be in (0, 10] m, got 0.0"),
         ("max_recoveries", 1.5, "spatial.max_recoveries: must be an integer"),
-        ("grid_res_m", 1e-4, "spatial.grid_res_m: the grid would have more than"),
+        ("grid_res_m", 1e-4, "spatial.grid_res_m: must be in [0.01, 10] m, got 0.0001"),
     ],
 )
 def test_bad_numbers(key, value, needle):
     d = doc()
     d["spatial"][key] = value
     fails(d, needle)
+
+
+def test_a_fine_grid_on_a_large_arena_is_refused():
+    d = doc()
+    d["spatial"].update(width_m=30.0, height_m=30.0, grid_res_m=0.01)  # 3000 x 3000 cells
+    fails(d, "spatial.grid_res_m: the grid would have more than 4,000,000 cells")
+    d["spatial"].update(width_m=19.0, height_m=19.0)  # 1900 x 1900 cells: in bounds
+    assert loads(d).grid_res_m == 0.01
 
 
 def test_obstacles_must_be_convex_and_in_the_arena():
@@ -194,7 +202,7 @@ def test_drive_and_sites_must_be_tables_of_positive_numbers():
     for value in (0.0, -0.1):
         d = doc()
         d["spatial"]["drive"]["radius_m"] = value
-        fails(d, f"x.toml: spatial.drive.radius_m: must be in (0, 5] m, got {value}")
+        fails(d, f"x.toml: spatial.drive.radius_m: must be in [0.01, 5] m, got {value}")
 
 
 def test_wheels_as_wide_as_the_robot_fit():

@@ -14,7 +14,7 @@ import pytest
 
 from sim.faults import FaultSpec
 from sim.tasks import Batch
-from sim.world import Abandon, AbstractWorld, Completion, WorldState, take_abandoned
+from sim.world import Abandon, AbstractWorld, Completion, World, WorldState
 
 NEVER = 1e12  # a mean time to failure that draws no failure within a test
 
@@ -89,11 +89,15 @@ def test_available_is_every_robot_without_faults_and_the_unbroken_ones_with_them
     assert broken.available().tolist() == [True, False, True]
 
 
-def test_take_abandoned_of_a_world_without_faults_is_empty():
-    class Plain:  # a world that never abandons has no take_abandoned at all
-        pass
-
-    assert take_abandoned(Plain()) == []
+def test_a_world_without_faults_abandons_nothing_and_declares_the_world_interface(tiny):
+    """The abstract world implements every member of ``World`` (no probe for optional
+    capabilities): no planner, no recorder, no fault model without a [faults] table, and an
+    empty list of abandoned tasks."""
+    world = AbstractWorld(tiny)
+    members = [n for n in vars(World) if not n.startswith("_")] + list(World.__annotations__)
+    assert all(hasattr(world, n) for n in members), [n for n in members if not hasattr(world, n)]
+    assert (world.planner, world.recorder, world.faults) == (None, None, None)
+    assert world.take_abandoned() == []
 
 
 def test_a_failure_exactly_at_the_end_of_an_advance_happens_in_it(tiny):
@@ -157,3 +161,25 @@ def test_a_new_world_draws_its_faults_as_one_reset_with_seed_0(tiny):
     assert np.array_equal(fresh.faults.next_fail_s, again.faults.next_fail_s)
     again.reset(np.random.default_rng(1))
     assert not np.array_equal(fresh.faults.next_fail_s, again.faults.next_fail_s)
+
+
+def test_abstract_world_abandons_the_task_of_a_broken_robot(tiny):
+    sc = dataclasses.replace(tiny, faults=FaultSpec(mttf_s=1e9, repair_s=20.0))
+    world = AbstractWorld(sc)
+    world.reset(np.random.default_rng(0))
+    world.faults.next_fail_s[:] = [5.0, np.inf, np.inf]  # R1 breaks at 5 s
+    batch = Batch(0, 0, np.array([10, 11]), np.array([0, 1]), np.zeros(2, bool), np.zeros((2, 2)))
+    world.apply(batch, np.array([0, 2]), np.array([1.0, 1.0]))
+    done = world.advance(10.0)
+    assert [c.task_id for c in done] == []  # both take 15 s
+    (ab,) = world.take_abandoned()
+    assert (ab.task_id, ab.robot, ab.t_alloc_s, ab.t_s) == (10, 0, 0.0, 5.0)
+    snap = world.snapshot()
+    assert snap.broken.tolist() == [True, False, False]
+    assert snap.free.tolist() == [False, True, False]
+    assert snap.busy_until_s[0] == 25.0  # repaired at 5 + 20 s
+    done = world.advance(10.0)
+    assert [(c.task_id, c.robot, c.t_done_s) for c in done] == [(11, 2, 15.0)]
+    world.advance(10.0)
+    assert world.snapshot().free.tolist() == [True, True, True]
+    assert world.take_abandoned() == []

@@ -1,13 +1,15 @@
-"""Speed of the pymunk world: our whole loop against bare ``space.step`` on the same bodies.
+"""Speed of the pymunk world: our whole loop in the units users pay, and against fixed physics.
 
 For each size a synthetic arena is built (about 13 m^2 per robot, one box obstacle per ten
 robots, task sites scattered in the free space). The robots are kept busy: every ``ROUND_S``
 (10 s, the paper's announcement interval) as many tasks as there are free robots are announced
 at random sites and auctioned (``mrta bench`` passes the market auction), so the measured loop is
-allocation, physics, control, planning, task bookkeeping, contact sampling and recording. The
-bare loop then steps the very same space (same bodies, joints and contacts) with nothing around
-it. Both are timed in the same process, one after the other, so ``bare_ratio`` is a ratio
-measured in one run.
+allocation, physics, control, planning, task bookkeeping, contact sampling and recording. It is
+reported as the real-time factor, as wall seconds per simulated robot-hour, and in steps of a
+calibration space (``scenarios.bench.calibration``: the same contact-free space of as many robots
+in every run), timed in the same process. The bare loop then steps the very same space (same
+bodies, joints and contacts) with nothing around it (``bare_ratio``; its cost moves with the
+world's contacts, which is why the calibration space is the yardstick).
 
 The space sets its solver iterations by the contacts (``sim.spatial.contacts``: one iteration while
 no contact touches, which is exact then, ten while one does), and the bare loop steps it as it is,
@@ -24,6 +26,7 @@ import time
 import numpy as np
 
 from scenarios.bench.arena import bench_scenario
+from scenarios.bench.calibration import calibration_step_s
 from sim.recording import TrajectoryRecorder
 from sim.spatial.world import PymunkWorld
 from sim.tasks import Batch
@@ -70,6 +73,7 @@ def bench_sim(
     control_hz: float = 10.0,
     allocator=None,
     avoidance: str = "none",
+    control: str = "auto",
 ) -> dict[str, dict[str, float]]:
     """Measure the pymunk world's speed for each robot count.
 
@@ -82,19 +86,24 @@ def bench_sim(
         allocator: ``allocator(scenario, world)`` returns the ``allocate(batch)`` callable of
             :func:`_run` (the auction), or None to hand tasks out in order.
         avoidance: ``[spatial] avoidance`` of the arenas, "none" or "orca".
+        control: the world's control period (``PymunkWorld``'s ``control``).
 
     Returns:
-        ``{str(n): {"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s",
+        ``{str(n): {"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
+        "sim_s", "wall_s", "bare_ratio", "bare_steps_per_s",
         "bare10_steps_per_s", "contact_share", "bids_ms", "avoid_share", "avoid_bare_ratio",
         "sites_share", "sites_bare_ratio", ...}}``: physics steps of the full loop per wall
         second, simulated / wall seconds, full-loop time per step over bare ``space.step``
         time per step, the bare loop's steps per second (as the world sets the space, and
-        with ten solver iterations throughout),
+        with ten solver iterations throughout); wall seconds per simulated robot-hour, the
+        loop's time per step in calibration steps (:func:`calibration_step_s` of n robots) and
+        that step's time; the simulated and wall seconds of the timed loop;
         the share of loop steps with a contact touching, and the milliseconds the
         planned-distance bids of every robot on 7 tasks take (:func:`_bids_ms`); the share of
         the loop's time spent in collision avoidance (``sim.spatial.law.orca``) and that time per
         step over the bare step, and the same for the site work only avoidance brings
-        (:func:`timed_sites`). If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
+        (:func:`timed_sites`; avoidance inside the compiled control period is not timed
+        apart: 0 there). If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
         ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; with
         avoidance, :func:`replan_report`; if the planner built its distance field,
         :func:`field_report`.
@@ -107,7 +116,7 @@ def bench_sim(
         else:
             sim_s = sim_seconds[n] if isinstance(sim_seconds, dict) else float(sim_seconds)
         scenario = bench_scenario(n, rng, control_hz=control_hz, avoidance=avoidance)
-        world = PymunkWorld(scenario)
+        world = PymunkWorld(scenario, control=control)
         sp = scenario.spatial
         world.recorder = TrajectoryRecorder(
             (sp.width_m, sp.height_m),
@@ -133,9 +142,15 @@ def bench_sim(
         finally:
             world.contacts.free_iterations = free
         bids_ms = _bids_ms(world, rng)
+        calib = calibration_step_s(n, max(60, min(steps // 4, 600)))
         out[str(n)] = {
             "steps_per_s": steps / wall,
             "rtf": steps * world.dt_s / wall,
+            "s_per_robot_h": wall / (n * steps * world.dt_s / 3600.0),
+            "calib_ratio": (wall / steps) / calib,
+            "calib_step_us": 1e6 * calib,
+            "sim_s": steps * world.dt_s,
+            "wall_s": wall,
             "bare_ratio": (wall / steps) / bare,
             "bare_steps_per_s": 1.0 / bare,
             "bare10_steps_per_s": 1.0 / bare10,

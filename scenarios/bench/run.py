@@ -1,17 +1,21 @@
 """``mrta bench``: speed and memory, reported as ratios against baselines measured in the same run.
 
-- ``sim``: the full spatial loop against a bare ``space.step`` loop on the same bodies. With 10
-  robots it is the paper scenario itself (``paper_spatial``, market auction, distance bids):
-  the task stream, bidding, allocation, physics, control, task bookkeeping and trajectory
-  recording of ``mrta run``, timed over the first ``PAPER_SETS`` task sets (learning and test
-  phase). Beside it, and for 100 and 1000 robots, a synthetic arena in which every robot is
-  always busy (``sim.bench_sim``: every 10 simulated seconds the free robots' tasks are
-  auctioned, bids being planned path lengths (:class:`PlannedMarket`, the ``distance`` cost
-  model); physics, control, task bookkeeping and recording as in a run); the 10-robot figures
-  of that arena are reported as ``busy_*`` members of the ``"10"`` row. ``bids_ms`` is the time
-  the ``distance`` cost model takes to bid every robot on a paper-sized batch of 7 tasks,
-  ``round_bids_ms`` / ``round_auction_ms`` what bidding and the auction took per round of the
-  timed loop. With 1000 robots the bids come from the distance field
+- ``sim``: the full spatial loop in the units users pay: the real-time factor, wall seconds per
+  simulated robot-hour, the price of avoidance (wall time per simulated second with ORCA over
+  without, both measured in this process) and the loop's time per physics step in steps of a
+  calibration space (``scenarios.bench.calibration``: the same contact-free space of as many robots
+  in every run; the world's bare ``space.step`` on the same bodies is reported too, but its cost
+  moves with the contacts). With 10 robots it is the paper scenario itself (``paper_spatial``,
+  market auction, distance bids): the task stream, bidding, allocation, physics, control, task
+  bookkeeping and trajectory recording of ``mrta run``, timed over the first ``PAPER_SETS`` task
+  sets (learning and test phase). Beside it, and for 100 and 1000 robots, a synthetic arena in which
+  every robot is always busy (``sim.bench_sim``: every 10 simulated seconds the free robots' tasks
+  are auctioned, bids being planned path lengths (:class:`PlannedMarket`, the ``distance`` cost
+  model); physics, control, task bookkeeping and recording as in a run); the 10-robot figures of
+  that arena are reported as ``busy_*`` members of the ``"10"`` row. ``bids_ms`` is the time the
+  ``distance`` cost model takes to bid every robot on a paper-sized batch of 7 tasks,
+  ``round_bids_ms`` / ``round_auction_ms`` what bidding and the auction took per round of the timed
+  loop. With 1000 robots the bids come from the distance field
   (``sim.spatial.navigation.distfield``), built during the warm-up: its build time, memory, ms per
   call for all robots x all 500 sites and x 50 sites against numpy straight lines, and its largest
   difference from the exact query are reported (``sim.bench_sim.field_report``);
@@ -77,13 +81,15 @@ def bench_paper_loop(
     bodies afterwards.
 
     Returns:
-        ``{"steps_per_s", "rtf", "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s",
-        "avoid_share", "avoid_bare_ratio", "sites_share", "sites_bare_ratio"}`` (the last four
-        as :func:`scenarios.bench.loop.bench_sim` says).
+        ``{"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
+        "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s", "avoid_share",
+        "avoid_bare_ratio", "sites_share", "sites_bare_ratio"}`` (as
+        :func:`scenarios.bench.loop.bench_sim` says).
     """
     import time
 
     from learning.episode import run_protocol
+    from scenarios.bench.calibration import calibration_step_s
     from scenarios.bench.loop import bare_step_time, timed_avoidance, timed_sites
     from scenarios.protocol import RunSpec, build_run
     from sim.recording import TrajectoryRecorder
@@ -101,9 +107,14 @@ def bench_paper_loop(
     wall = time.perf_counter() - t0
     steps = world.steps_ - steps0
     bare = bare_step_time(world, max(60, steps // 4))
+    n = scenario.n_robots
+    calib = calibration_step_s(n, 600)
     return {
         "steps_per_s": steps / wall,
         "rtf": steps * world.dt_s / wall,
+        "s_per_robot_h": wall / (n * steps * world.dt_s / 3600.0),
+        "calib_ratio": (wall / steps) / calib,
+        "calib_step_us": 1e6 * calib,
         "bare_ratio": (wall / steps) / bare,
         "bare_steps_per_s": 1.0 / bare,
         "sim_s": steps * world.dt_s,
@@ -135,62 +146,7 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             print(text, file=sys.stdout, flush=True)
 
     if "sim" in parts:
-        from scenarios.bench.loop import bench_sim
-
-        say("sim: full loop vs bare space.step, physics at 60 Hz, control at 10 Hz ...")
-        synthetic = bench_sim(allocator=PlannedMarket)
-        paper = bench_paper_loop()
-        paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
-        out["sim"] = {"10": paper, **synthetic}
-        # the same loops with collision avoidance on ([spatial] avoidance = "orca"), same run
-        synthetic = bench_sim(allocator=PlannedMarket, avoidance="orca")
-        paper = bench_paper_loop(avoidance="orca")
-        paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
-        out["sim_orca"] = {"10": paper, **synthetic}
-        for n, r in out["sim"].items():
-            what = "paper_spatial, whole run loop" if n == "10" else "busy synthetic arena"
-            if n != "10":
-                what += (
-                    f", planned-distance bids: {r['round_bids_ms']:.1f} ms + auction "
-                    f"{r['round_auction_ms']:.1f} ms per round; all robots x 7 tasks: "
-                    f"{r['bids_ms']:.1f} ms"
-                )
-            say(
-                f"  {n:>5} robots: {r['steps_per_s']:>9,.0f} steps/s  {r['rtf']:>7,.0f}x real time "
-                f" loop/bare = {r['bare_ratio']:.2f}  avoidance/bare = {r['avoid_bare_ratio']:.2f}"
-                f" ({r['avoid_share']:.0%} of the loop)  ({what})"
-            )
-            if "field_build_s" in r:
-                say(
-                    f"         distance field: built in {r['field_build_s']:.1f} s "
-                    f"(fields {r['field_fields_s']:.1f}, raster {r['field_raster_s']:.1f}, "
-                    f"refine {r['field_refine_s']:.1f}), {r['field_mib']:.0f} MiB, "
-                    f"{100 * r['field_mixed_share']:.1f} % of cell-site pairs tested exactly; "
-                    f"all robots x all sites {r['dist_all_ms']:.1f} ms "
-                    f"(straight lines {r['straight_all_ms']:.1f} ms), x 50 sites "
-                    f"{r['dist_50_ms']:.1f} ms ({r['straight_50_ms']:.2f} ms); "
-                    f"largest difference from the exact query {r['field_max_err_m']:.1e} m"
-                )
-        busy = out["sim"]["10"]
-        say(
-            f"     10 robots, busy synthetic arena: {busy['busy_rtf']:,.0f}x real time, "
-            f"loop/bare = {busy['busy_bare_ratio']:.2f}"
-        )
-        say("sim, collision avoidance on (ORCA): the same loops, loop/bare and its cost alone")
-        for n, r in out["sim_orca"].items():
-            base = out["sim"][n]["bare_ratio"]
-            say(
-                f"  {n:>5} robots: {r['steps_per_s']:>9,.0f} steps/s  {r['rtf']:>7,.0f}x real time "
-                f" loop/bare = {r['bare_ratio']:.2f} (without avoidance {base:.2f})  "
-                f"avoidance/bare = {r['avoid_bare_ratio']:.2f} ({r['avoid_share']:.0%} of the loop)"
-                f"  site queues/bare = {r['sites_bare_ratio']:.2f} ({r['sites_share']:.0%})"
-            )
-            if "replan_ms" in r:
-                say(
-                    f"         a jam's re-plan round robots: {r['replan_ms']:.1f} ms "
-                    f"(graph built afresh: {r['replan_fresh_ms']:.1f} ms, "
-                    f"{r['replan_fresh_ms'] / r['replan_ms']:.1f}x)"
-                )
+        out.update(bench_sim_part(say))
     if "gif" in parts:
         from scenarios.bench.gif import bench_gif
 
@@ -237,4 +193,50 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
                     )
                 cells.append(cell)
             say(f"  {n:>5} bidders: " + "; ".join(cells))
+    return out
+
+
+def bench_sim_part(say) -> dict:
+    """The ``sim`` part: the loops without and with avoidance, and what avoidance costs."""
+    from scenarios.bench.loop import bench_sim
+
+    say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
+    out = {}
+    for key, avoidance in (("sim", "none"), ("sim_orca", "orca")):
+        synthetic = bench_sim(allocator=PlannedMarket, avoidance=avoidance)
+        paper = bench_paper_loop(avoidance=avoidance)
+        paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
+        out[key] = {"10": paper, **synthetic}
+    out["avoidance_price"] = {}
+    for n, off in out["sim"].items():
+        on = out["sim_orca"][n]
+        price = {"price": (on["wall_s"] / on["sim_s"]) / (off["wall_s"] / off["sim_s"])}
+        if "busy_wall_s" in off:  # the 10-robot busy arena too
+            busy = (on["busy_wall_s"] / on["busy_sim_s"]) / (off["busy_wall_s"] / off["busy_sim_s"])
+            price["busy_price"] = busy
+        out["avoidance_price"][n] = price
+    say(
+        "  robots  avoidance  real-time factor  wall s per robot-hour  loop in calibration "
+        "steps per physics step (calibration step)  loop/bare step"
+    )
+    for n in out["sim"]:
+        for key, label in (("sim", "none"), ("sim_orca", "orca")):
+            r = out[key][n]
+            say(
+                f"  {n:>6}  {label:>9}  {r['rtf']:>16,.1f}  {r['s_per_robot_h']:>21.2f}  "
+                f"{r['calib_ratio']:>14.2f} ({r['calib_step_us']:.1f} us){'':>24}"
+                f"{r['bare_ratio']:.2f}"
+            )
+        price = out["avoidance_price"][n]
+        what = "paper_spatial, the run loop" if n == "10" else "busy synthetic arena"
+        extra = f"; busy arena {price['busy_price']:.2f}" if "busy_price" in price else ""
+        say(f"          price of avoidance {price['price']:.2f} ({what}{extra})")
+    for n, r in out["sim"].items():
+        if "field_build_s" in r:
+            say(
+                f"  {n} robots, distance field: built in {r['field_build_s']:.1f} s, "
+                f"{r['field_mib']:.0f} MiB; all robots x all sites {r['dist_all_ms']:.1f} ms "
+                f"(straight lines {r['straight_all_ms']:.1f} ms); largest difference from the "
+                f"exact query {r['field_max_err_m']:.1e} m"
+            )
     return out

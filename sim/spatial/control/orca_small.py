@@ -5,7 +5,7 @@ For a handful of robots numpy's overhead per call, not arithmetic, is the cost o
 first steps (the nearest robots in range, their half-planes, whether the plan leaves one) run
 here in plain Python; the commands of the robots whose plan does come from
 ``sim.spatial.law.orca``'s numpy code, because numpy's complex arithmetic (fused multiply-add)
-and Python's differ in the last bits. ``tests/sim/test_orca_fast.py`` holds the parity.
+and Python's differ in the last bits. ``tests/parity/test_orca_fast.py`` holds the parity.
 """
 
 from __future__ import annotations

@@ -1,11 +1,12 @@
 """What a control period is: the one interface both implementations have, and what they work on.
 
 A control period reads the robots' poses, advances their tasks, steers them, caps their speeds
-near robots and obstacles, limits the wheels and writes the motor commands. It exists twice with
-the same formulas (``sim.spatial.law.drive``): over numpy arrays (``sim.spatial.control.array``),
-and robot by robot in plain Python (``sim.spatial.control.scalar``), which is quicker for a small
-team because numpy's per-call overhead dominates there. Both command the same wheels up to rounding,
-and each is bit-for-bit reproducible on its own.
+near robots and obstacles, limits the wheels and writes the motor commands. It exists three times
+with the same rules: compiled (``sim.spatial.control.compiled``, numba, for every team size), over
+numpy arrays (``sim.spatial.control.array``) and robot by robot in plain Python
+(``sim.spatial.control.scalar``) with the formulas of ``sim.spatial.law.drive``. They command the
+same wheels up to rounding (the compiled one keeps wall lines hard in a velocity program with no
+solution, a rule of its own), and each is bit-for-bit reproducible on its own.
 """
 
 from __future__ import annotations

@@ -7,8 +7,8 @@ floats and complex numbers is several times faster, and it skips what a robot do
 :class:`sim.spatial.control.array.ArrayControl`: the same formulas (``sim.spatial.law.drive``,
 called robot by robot), the same order, the same event handlers (``sim.spatial.jobs.Jobs``); rare
 work (waypoint switches, arrivals, stuck checks, make-way) calls the array code.
-``tests/sim/test_control.py`` runs both from copies of the same state and checks that they command
-the same wheels; ``tests/sim/test_physics.py`` runs the behaviour tests through both.
+``tests/parity/test_controls.py`` runs both from copies of the same state and checks that they
+command the same wheels; ``tests/behaviour/test_physics.py`` runs the behaviour tests through both.
 
 It also skips what cannot change: it looks only at pairs with a steering robot (a standing robot
 has no speed to cap) and sleeps the proximity check until a steering robot could come within

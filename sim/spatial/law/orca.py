@@ -35,8 +35,8 @@ Symmetry: when many preferred velocities point at one spot (robots swapping plac
 circle) plain ORCA slows them all to a standstill there. A robot whose plan leaves a half-plane
 prefers its velocity turned ``right_bias_deg`` to the right, a right-hand traffic rule that makes
 every pair pass the same way round, so the crowd turns as a roundabout instead of jamming
-(``tests/sim/test_orca.py``: 20 robots swap a 5 m circle in 18.1 s, IR-SIM RVO 23.1 s, without a
-contact).
+(``tests/behaviour/test_orca.py``: 20 robots swap a 5 m circle in 18.1 s, IR-SIM RVO 23.1 s, without
+a contact).
 ``bias_room_m`` limits it to robots whose body has more room than that to the nearest obstacle;
 the default, ``-inf``, biases every such robot. 1.0 m was measured (``docs/avoidance.md``,
 "Probes measured and not merged"): faster in both scenarios, but head-on pairs in
@@ -49,7 +49,7 @@ aad4a41). In the 20-robot circle swap (starts moved by 0.1 mm, seed 1) robots in
 middle of what their lines left drove one backwards at 0.3 of the top speed and the robot
 behind it forwards, into each other. With 6 neighbours and backing at up to 0.3 of
 the top speed, 13 of 29 swaps from starts moved by about 0.1 mm touched (``mrta hardcase circle
---jitter 1e-4 --seeds 29``; README, "Contacts in a dense crowd"); with 10 and none, none.
+--jitter 1e-4 --seeds 29``; docs/results/avoidance.md); with 10 and none, none.
 
 The programs are small (at most ``max_neighbours`` + 3 lines) and solved for every robot at once:
 the optimum of a convex quadratic over half-planes and a disc is the preferred velocity, its
@@ -260,7 +260,12 @@ def solve(normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float
 
 
 def solve_enumerated(
-    normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float, pool=None
+    normal: np.ndarray,
+    offset: np.ndarray,
+    pref: np.ndarray,
+    v_max: float,
+    pool=None,
+    cells: int = 1 << 22,
 ) -> np.ndarray:
     """:func:`solve` by enumeration: every candidate (``pref`` on the speed disc, its
     projection on each line, the points where a line meets the circle, the crossings of two
@@ -276,9 +281,34 @@ def solve_enumerated(
         normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
             negative); pref: (n,) preferred velocities; pool: (P,) the other rows' ones, or
             (n, 1) for each row its own only.
+        cells: the most (row, candidate, line) values built at once (default 4M complex
+            values, 64 MB); larger programs go in row blocks, which give the same rows bit
+            for bit.
     """
-    n, c = normal, offset
     pool = pref if pool is None else pool
+    lines = normal.shape[1]
+    width = pool.shape[-1] + 3 * lines + lines * (lines - 1) // 2 + 1  # candidates per row
+    block = max(1, cells // max(1, width * lines))
+    if len(pref) <= block:
+        return _enumerate(normal, offset, pref, v_max, pool)
+    # rows are independent: bound the (rows, candidates, lines) arrays
+    return np.concatenate(
+        [
+            _enumerate(
+                normal[at : at + block],
+                offset[at : at + block],
+                pref[at : at + block],
+                v_max,
+                pool if pool.ndim == 1 else pool[at : at + block],
+            )
+            for at in range(0, len(pref), block)
+        ]
+    )
+
+
+def _enumerate(n, c, pref, v_max, pool):
+    """:func:`solve_enumerated` on one block of rows."""
+    lines = n.shape[1]
     big = c > -_BIG / 2
     speed = np.abs(pref)
     cands = [pool * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
@@ -287,7 +317,6 @@ def solve_enumerated(
     half = np.sqrt(np.maximum(v_max * v_max - c * c, 0.0))
     foot = c * n
     cands += [foot + half * 1j * n, foot - half * 1j * n]
-    lines = n.shape[1]
     if lines > 1:
         a, b = np.triu_indices(lines, 1)
         na, nb, ca, cb = n[:, a], n[:, b], c[:, a], c[:, b]

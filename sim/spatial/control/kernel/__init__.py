@@ -1,0 +1,14 @@
+"""The compiled control period's kernel (numba, ``@njit(cache=True)``, no fastmath).
+
+One algorithm per module, each the numpy law's rules for one robot at a time:
+
+- ``settings``: the law's numbers as plain arguments (no globals, no recompilation per scenario);
+- ``obstacles``: the nearest obstacle point; ``neighbours``: a uniform grid and k nearest;
+- ``halfplanes``: ORCA's lines; ``linprog``: RVO2's linear programs 1, 2 and 3;
+- ``avoid``: ORCA's commands; ``drive``: path aim, steering, speed caps, wheel limits;
+- ``steering`` and ``commands``: the two halves of a period, over every robot;
+- ``views``: their arguments built from the world's objects; ``loading``: the cache, the
+  one-line notice of a first compilation, the warm-up.
+
+``sim.spatial.control.compiled.CompiledControl`` calls it and handles the events in Python.
+"""

@@ -1,7 +1,8 @@
 """PettingZoo ``ParallelEnv``: every robot is an agent deciding, per announced task, bid or wait.
 
-One step is one announcement round, as in the Gymnasium env (the round mechanics are shared:
-:class:`learning.gym_env.AllocationRounds`). Agents are the robots, named as in the scenario.
+One step is one announcement round, as in the Gymnasium env (both hold a
+:class:`learning.env_rounds.RoundEngine`, ``env.rounds``). Agents are the robots, named as in the
+scenario.
 Agent j observes only itself and the batch:
 
 - ``position``: its (x, y) in m from the world snapshot in a spatial scenario, zeros in the
@@ -41,16 +42,35 @@ except ImportError as exc:  # pragma: no cover - depends on the installed extras
         "learning.pz_env needs PettingZoo: pip install 'expt-mrta[marl]' (pettingzoo>=1.24)"
     ) from exc
 
-from learning.gym_env import BUSY_CAP_S, MAX_SLOTS, AllocationRounds, RoundOutcome
+from learning.env_rounds import (
+    BUSY_CAP_S,
+    MAX_SLOTS,
+    RENDER_MODES,
+    RoundEngine,
+    RoundOutcome,
+    check_render_mode,
+    shows_engine,
+)
 from sim.scenario import Scenario
 
 
-class AllocationParallelEnv(AllocationRounds, ParallelEnv):
-    """``mrta_allocation_v0``: the allocation round as a parallel multi-agent game."""
+@shows_engine
+class AllocationParallelEnv(ParallelEnv):
+    """``mrta_allocation_v0``: the allocation round as a parallel multi-agent game.
+
+    Args:
+        scenario: the scenario; cost: the cost model robots bid with; sets: which sets an
+            episode plays (all, learn, test, protocol); render_mode: None or "rgb_array".
+
+    Attributes:
+        rounds: the :class:`~learning.env_rounds.RoundEngine` playing the rounds; its
+            ``scenario``, ``capable``, ``world``, ``batch_``, ``experience_`` ... are shown
+            on the env too.
+    """
 
     metadata: ClassVar[dict] = {
         "name": "mrta_allocation_v0",
-        "render_modes": ["rgb_array"],
+        "render_modes": list(RENDER_MODES),
         "render_fps": 10,
     }
 
@@ -61,7 +81,9 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
         sets: str = "all",
         render_mode: str | None = None,
     ) -> None:
-        self._setup(scenario, cost, sets, render_mode)
+        check_render_mode(render_mode)
+        self.render_mode = render_mode
+        self.rounds = RoundEngine(scenario, cost, sets, record=render_mode == "rgb_array")
         self.possible_agents = [r.name for r in scenario.robots]
         self.agents: list[str] = []
         self.agent_index = {a: j for j, a in enumerate(self.possible_agents)}
@@ -112,7 +134,7 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
         if seed is not None:
             self._np_random, _ = seeding.np_random(seed)
         run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
-        self._start(run_seed, (options or {}).get("sets"))
+        self.rounds.start(run_seed, (options or {}).get("sets"))
         self.agents = list(self.possible_agents)
         won = np.full(len(self.agents), -1)
         return self._observations(), self._infos(won)
@@ -129,7 +151,7 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
                 raise ValueError(f"{agent}: action must have {MAX_SLOTS} entries, got {a.size}")
             self._check_agent(agent)
             bid[self.agent_index[agent]] = a[:k].astype(bool)
-        out, done = self._play(bid)
+        out, done = self.rounds.play(bid)
         rewards = self.agent_rewards(out)
         won = np.full(m, -1)
         won[out.assignment[out.won]] = np.flatnonzero(out.won)
@@ -146,9 +168,7 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
         """The current frame as an (H, W, 3) uint8 array (the GIF's frames in spatial worlds)."""
         if self.render_mode != "rgb_array":
             return None
-        from sim.render.env import env_frame
-
-        return env_frame(self)
+        return self.rounds.frame()
 
     def close(self) -> None:
         """Nothing to release."""
@@ -172,12 +192,12 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
 
     def _observations(self) -> dict[str, dict[str, Any]]:
         state = self.world.snapshot()
-        types, high, valid = self._slots()
+        types, high, valid = self.rounds.slots()
         can = self.capable[:, types] & valid.astype(bool)[None, :]  # (m, MAX_SLOTS)
         own_types = np.where(can, types[None, :], 0)
         own_high = (can & high.astype(bool)[None, :]).astype(np.int8)
         own_valid = can.astype(np.int8)
-        busy = self._busy_s(state)[:, None]
+        busy = self.rounds.busy_s(state)[:, None]
         u = self.experience_.u_.astype(np.float32)
         if state.positions is None:
             pos = np.zeros((self.scenario.n_robots, 2), dtype=np.float32)
@@ -198,7 +218,7 @@ class AllocationParallelEnv(AllocationRounds, ParallelEnv):
         }
 
     def _infos(self, won: np.ndarray) -> dict[str, dict[str, Any]]:
-        team = self._info()
+        team = self.rounds.info()
         return {a: {**team, "won": int(won[j])} for j, a in enumerate(self.agents)}
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from allocation.costs import CostModel
 from sim.tasks import Batch
-from sim.world import Abandon, Completion, World, WorldState, take_abandoned
+from sim.world import Abandon, Completion, World, WorldState
 
 Decide = Callable[[WorldState, Batch, np.ndarray], tuple[np.ndarray, np.ndarray]]
 """``decide(state, batch, costs) -> (assignment, bids)``: ``assignment[t]`` is the robot given
@@ -66,7 +66,7 @@ def play_round(
     won_bid[won] = costs[assignment[won], np.flatnonzero(won)]
     world.apply(batch, assignment, won_bid)
     done = world.advance(interval_s)
-    abandoned = take_abandoned(world)
+    abandoned = world.take_abandoned()
     if recorder is not None:
         recorder.announce(state.time_s, batch.ids, batch.types, batch.high, batch.sites)
         recorder.allocate(state.time_s, batch.ids, assignment)
@@ -77,7 +77,7 @@ def play_round(
 
 def drain(world: World, recorder=None) -> list[Completion]:
     """Finish every running task (the end of a set) and tell the recorder. Tasks abandoned
-    on the way (a robot broke) are left in the world for ``sim.world.take_abandoned``."""
+    on the way (a robot broke) are left in the world for ``World.take_abandoned``."""
     done = world.drain()
     if recorder is not None:
         for c in done:

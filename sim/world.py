@@ -13,7 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
-from sim.faults import build_faults, fault_seed_sequence
+from sim.faults import FaultModel, build_faults, fault_seed_sequence
 from sim.scenario import Scenario
 from sim.tasks import Batch
 
@@ -60,16 +60,24 @@ class Abandon:
     bid: float
 
 
-def take_abandoned(world) -> list[Abandon]:
-    """The tasks ``world`` abandoned since the last call (none for a world without faults)."""
-    take = getattr(world, "take_abandoned", None)
-    return take() if take is not None else []
-
-
 class World(Protocol):
-    """Interface every world implements (abstract and pymunk)."""
+    """Interface every world implements (abstract and pymunk): the loop, the environments and
+    the checkpoints use only this.
+
+    Attributes:
+        scenario: the scenario the world was built for.
+        faults: its robots' fault model (``sim.faults.FaultModel``), or None when no robot
+            can break.
+        planner: the arena's planner the distance and time cost models bid with (a
+            ``sim.spatial.navigation.planning.GridPlanner``), or None in a world without space.
+        recorder: a ``sim.recording.TrajectoryRecorder`` fed poses while the world runs, or
+            None (a world without space records no poses).
+    """
 
     scenario: Scenario
+    faults: FaultModel | None
+    planner: object | None
+    recorder: object | None
 
     def reset(self, rng: np.random.Generator) -> None:
         """Put robots at their start and free them."""
@@ -86,6 +94,16 @@ class World(Protocol):
     def drain(self) -> list[Completion]:
         """Finish every task in progress (end of a task set); robots stay where they are."""
 
+    def take_abandoned(self) -> list[Abandon]:
+        """The tasks given up since the last call because their robot broke, in order (always
+        empty without faults)."""
+
+    def state_arrays(self) -> dict[str, np.ndarray]:
+        """The world's whole state between task sets as named arrays (checkpoints)."""
+
+    def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
+        """Put a state of :meth:`state_arrays` back."""
+
 
 class AbstractWorld:
     """Time-only world: robot j doing a T_i task is busy for ``exec_time_s[i]`` seconds.
@@ -97,6 +115,9 @@ class AbstractWorld:
     A new world is reset with ``np.random.default_rng(0)``; the experiment loop resets it with
     the run's world generator.
     """
+
+    planner = None  # no space: the abstract cost table alone
+    recorder = None  # no poses to record
 
     def __init__(self, scenario: Scenario) -> None:
         self.scenario = scenario

@@ -17,13 +17,15 @@ from sim.render.style import type_colours
 FRAME_SIZE = (600, 600)
 
 
-def env_frame(env, size: tuple[int, int] = FRAME_SIZE) -> np.ndarray:
-    """(H, W, 3) uint8 frame of an allocation environment (duck-typed: world, batch_, scenario)."""
-    recorder = getattr(env, "recorder_", None)
+def env_frame(
+    world, batch, scenario, recorder=None, size: tuple[int, int] = FRAME_SIZE
+) -> np.ndarray:
+    """(H, W, 3) uint8 frame of an allocation environment now: the recording's last instant
+    (a spatial world with a ``recorder``), else the status board of ``world`` and ``batch``."""
     if recorder is not None and recorder.has_poses():
         traj = recorder.finish()
         return render_frame(traj, float(traj.times_s[-1]), size=size)
-    return status_frame(env.world.snapshot(), env.batch_, env.scenario, size)
+    return status_frame(world.snapshot(), batch, scenario, size)
 
 
 def status_frame(state, batch, scenario, size: tuple[int, int] = FRAME_SIZE) -> np.ndarray:

@@ -21,7 +21,54 @@ from learning.fates import ABANDON_ENDS, FATES, FateError, FateLedger
 from learning.rounds import Decide, drain, play_round
 from sim.scenario import Scenario
 from sim.tasks import Batch, TaskStream
-from sim.world import Abandon, Completion, World, WorldState, take_abandoned
+from sim.world import Abandon, Completion, World, WorldState
+
+
+class AllocatorFailure(RuntimeError):
+    """An allocator's ``allocate`` raised or answered something that is not an allocation.
+
+    ``str(err)`` is one line naming the allocator (class and module), the phase, set and round,
+    and the problem; the original exception, if any, is ``err.__cause__``.
+    """
+
+    @classmethod
+    def at(cls, allocator, where: dict, problem: str) -> AllocatorFailure:
+        """The failure of ``allocator`` in the round ``where`` (phase, set, round)."""
+        kind = type(allocator)
+        place = f"{where.get('phase', '?')} phase, set {where.get('set', '?')}, "
+        place += f"round {where.get('round', '?')}"
+        return cls(f"allocator {kind.__name__} ({kind.__module__}), {place}: {problem}")
+
+
+def _well_formed(answer, allocator, where: dict, m: int, k: int):
+    """``(assignment, bids)`` from an allocator's answer, or AllocatorFailure saying what is
+    wrong: not a pair, an assignment that is not k integers in -1..m-1, bids that are not
+    (m, k) numbers (NaN is not a bid; inf is no bid)."""
+
+    def bad(problem: str):
+        return AllocatorFailure.at(allocator, where, problem)
+
+    if not isinstance(answer, tuple | list) or len(answer) != 2:
+        raise bad(f"allocate must return (assignment, bids), got {type(answer).__name__}")
+    assignment, bids = answer
+    try:
+        assignment = np.asarray(assignment)
+        bids = np.asarray(bids, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise bad(f"allocate returned arrays numpy cannot read ({exc})") from None
+    if assignment.shape != (k,) or not np.issubdtype(assignment.dtype, np.integer):
+        raise bad(
+            f"the assignment must be {k} integers (one robot per task, -1: lost), "
+            f"got shape {assignment.shape} of {assignment.dtype}"
+        )
+    out = assignment[(assignment < -1) | (assignment >= m)]
+    if out.size:
+        raise bad(f"the assignment names robot {int(out[0])}, outside -1..{m - 1}")
+    if bids.shape != (m, k):
+        raise bad(f"the bids must be a ({m}, {k}) array, got {bids.shape}")
+    if np.isnan(bids).any():
+        raise bad("the bids hold NaN (use inf for no bid)")
+    return assignment.astype(np.int64, copy=False), bids
 
 
 class InvariantError(RuntimeError):
@@ -176,14 +223,17 @@ def run_protocol(
         if pi < start_phase:
             continue
         phase = record.learn if phase_name == "learn" else record.test
-        decide = _checked(allocator, capable, phase.lost_causes)
+        where = {"phase": phase_name}  # named in an allocator's failure
+        decide = _checked(allocator, capable, phase.lost_causes, where)
         for pos, s in enumerate(set_indices):
             if pi == start_phase and pos < start_pos:
                 continue
             allocator.begin_set(s, learning=phase_name == "learn")
+            where.update(set=s, round=0)
             ids, assigned, bids, done = [], [], [], []
             ledger = FateLedger(policy, f"{phase_name} phase, set {s}")
             for batch in stream.batches(s):
+                where["round"] = int(batch.round_index)
                 batch = ledger.with_requeued(batch)
                 played = play_round(world, batch, cost_model, decide, interval, recorder)
                 _ledger_round(ledger, played, scenario, abandoned_hook)
@@ -197,7 +247,7 @@ def run_protocol(
                 if on_round is not None:
                     on_round()
             drained = drain(world, recorder)
-            _ledger_events(ledger, drained, take_abandoned(world), scenario, abandoned_hook)
+            _ledger_events(ledger, drained, world.take_abandoned(), scenario, abandoned_hook)
             done.extend(drained)
             allocator.end_set()
             _check_set(phase_name, s, ids, assigned, done, allocator, scenario, ledger)
@@ -225,7 +275,7 @@ def run_protocol(
                 on_set_end(pi, pos + 1, record)
     record.space_final = allocator.learning_space().copy()
     record.willing_final = allocator.willing().copy()
-    faults = getattr(world, "faults", None)
+    faults = world.faults
     if faults is not None:
         record.availability = faults.availability(float(world.snapshot().time_s))
         record.failures = faults.failures.copy()
@@ -256,14 +306,22 @@ def _ledger_events(ledger: FateLedger, done, abandoned, scenario: Scenario, hook
         raise InvariantError(str(err)) from None
 
 
-def _checked(allocator, capable: np.ndarray, lost_causes: np.ndarray) -> Decide:
+def _checked(allocator, capable: np.ndarray, lost_causes: np.ndarray, where: dict) -> Decide:
     """The allocator's decision with the round's invariants checked and its losses counted
-    (into ``lost_causes``, in place)."""
+    (into ``lost_causes``, in place). The call into the allocator is a boundary: an exception
+    or a malformed answer becomes an :class:`AllocatorFailure` naming the allocator and the
+    round (``where``: phase, set and round, kept up to date by the caller)."""
 
     def decide(state: WorldState, batch: Batch, costs: np.ndarray):
         allowed = allocator.allowed().copy()
         willing = allocator.willing().copy()
-        assignment, bids = allocator.allocate(state, batch, costs)
+        try:
+            answer = allocator.allocate(state, batch, costs)
+        except Exception as exc:
+            raise AllocatorFailure.at(
+                allocator, where, f"raised {type(exc).__name__}: {exc}"
+            ) from exc
+        assignment, bids = _well_formed(answer, allocator, where, state.free.size, len(batch))
         _check_assignment(assignment, bids, batch, state.free, allowed, capable, state.broken)
         won = assignment >= 0
         if not won.all():

@@ -3,7 +3,8 @@
 Allocators are found, in this order:
 
 1. ``module:Class`` (``mypkg.alloc:Greedy``): imported from the module, which must be
-   importable (installed, or on ``PYTHONPATH``);
+   importable: installed, on ``PYTHONPATH``, or a file in the current folder (``my_alloc.py``
+   for ``my_alloc:Budget``, as ``python -m`` would find it);
 2. a name registered under the entry-point group ``expt_mrta.allocators`` by any installed
    package (the built-ins are registered there too, in this package's ``pyproject.toml``);
 3. the built-in table :data:`BUILTIN_ALLOCATORS` (so a source checkout that is not
@@ -18,6 +19,8 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import os
+import sys
 from importlib.metadata import entry_points
 
 from allocation.auction import MarketAllocator
@@ -91,11 +94,12 @@ def _import(target: str) -> type:
     if not module_name or not attr:
         raise AllocatorError(f"allocator {target!r}: write it as module:Class")
     try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
+        module = _import_module(module_name)
+    except Exception as exc:  # the plug-in's own code runs here: any error is its problem
+        what = f"{type(exc).__name__}: {exc}" if not isinstance(exc, ImportError) else str(exc)
         raise AllocatorError(
-            f"allocator {target!r}: cannot import {module_name!r} ({exc})"
-        ) from None
+            f"allocator {target!r}: cannot import {module_name!r} ({what})"
+        ) from exc
     try:
         obj = module
         for part in attr.split("."):
@@ -103,3 +107,24 @@ def _import(target: str) -> type:
     except AttributeError:
         raise AllocatorError(f"allocator {target!r}: {module_name} has no {attr!r}") from None
     return obj
+
+
+def _import_module(name: str):
+    """``importlib.import_module(name)``; a module not found is looked for again in the current
+    folder, which stays first on ``sys.path`` from then on (worker processes inherit it)."""
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as exc:
+        here = os.getcwd()
+        top = name.split(".")[0]
+        if exc.name != top or here in sys.path or not _in_folder(here, top):
+            raise
+        sys.path.insert(0, here)
+        return importlib.import_module(name)
+
+
+def _in_folder(folder: str, top: str) -> bool:
+    """True if ``folder`` holds module or package ``top``."""
+    return os.path.isfile(os.path.join(folder, f"{top}.py")) or os.path.isfile(
+        os.path.join(folder, top, "__init__.py")
+    )

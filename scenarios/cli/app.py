@@ -15,8 +15,8 @@ from scenarios.cli.parser import EXIT_USAGE, build_parser
 WHERE = {  # what an interrupted command leaves behind, said on Ctrl-C
     "reproduce": "metrics.json and the figures are written only at the end, so --out is unchanged",
     "compare": "compare.json and the figures are written only at the end, so --out is unchanged",
-    "run": "with --checkpoint, OUT/checkpoint.npz holds the last finished task set: "
-    "repeat the command with --resume to continue",
+    "run": "OUT is as it was; with --checkpoint, the checkpoint of the last finished task set "
+    "is kept beside it (.OUT.partial/): repeat the command with --resume to continue",
     "sweep": "finished runs are in OUT/runs.csv: repeat the command to run only the missing ones",
     "study": "finished runs are in OUT/<part>/runs.csv: repeat the command to go on",
     "soak": "no output is written by a soak",
@@ -26,23 +26,29 @@ WHERE = {  # what an interrupted command leaves behind, said on Ctrl-C
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``mrta`` console script."""
     from learning.checkpoint import CheckpointError
-    from learning.episode import InvariantError
+    from learning.episode import AllocatorFailure, InvariantError
     from learning.registry import AllocatorError
+    from scenarios.experiments.outdir import OutputError, os_error_line
     from scenarios.experiments.protocol import UserError
     from scenarios.loader import ScenarioError
+    from sim.maps import MapError
     from sim.tasks import StreamFileError
 
     args = build_parser().parse_args(argv)
+    known = (ScenarioError, StreamFileError, UserError, AllocatorError, OutputError, MapError)
     try:
         return COMMANDS[args.command](args)
-    except (ScenarioError, StreamFileError, UserError, AllocatorError) as exc:
+    except (*known, CheckpointError, AllocatorFailure) as exc:
+        _trace(args, exc)
         print(f"mrta: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except FileNotFoundError as exc:
+        _trace(args, exc)
         print(f"mrta: error: {exc.filename or exc}: file or folder not found", file=sys.stderr)
         return EXIT_USAGE
-    except CheckpointError as exc:
-        print(f"mrta: error: {exc}", file=sys.stderr)
+    except OSError as exc:  # read-only folder, full disk, a symbolic-link loop ...
+        _trace(args, exc)
+        print(f"mrta: error: {os_error_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except InvariantError as exc:
         print(f"mrta: invariant violated: {exc}", file=sys.stderr)
@@ -54,3 +60,11 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 130
+
+
+def _trace(args, exc: BaseException) -> None:
+    """With ``--debug``, the traceback of ``exc`` (and what caused it) on stderr."""
+    if args.debug:
+        import traceback
+
+        traceback.print_exception(exc, file=sys.stderr)

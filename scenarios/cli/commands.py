@@ -114,42 +114,30 @@ def cmd_reproduce(args) -> int:
 
 def cmd_stream(args) -> int:
     from learning.seeding import run_generators
+    from scenarios.experiments.outdir import check_out_file
     from scenarios.experiments.protocol import load_named
     from sim.tasks import generate_stream, save_stream
 
+    out = check_out_file(args.out, "--out")
     sc = load_named(args.scenario)
     stream = generate_stream(sc, run_generators(args.seed).stream)
-    if not args.out.parent.is_dir():
-        raise FileNotFoundError(f"{args.out.parent}: output folder does not exist")
-    save_stream(stream, args.out)
+    save_stream(stream, out)
     print(f"wrote {len(stream)} tasks ({stream.n_sets} sets) to {args.out}")
     return 0
 
 
 def cmd_run(args) -> int:
-    from scenarios.experiments.manifest import (
-        build_manifest,
-        numerics_note,
-        read_manifest,
-        write_manifest,
-    )
-    from scenarios.experiments.metrics import aggregate
-    from scenarios.experiments.output import write_json_atomic
-    from scenarios.experiments.progress import progress_bar, protocol_rounds
-    from scenarios.experiments.protocol import (
-        RunSpec,
-        UserError,
-        apply_overrides,
-        execute,
-        load_named,
-    )
+    from scenarios.experiments.manifest import numerics_note, read_manifest
+    from scenarios.experiments.outdir import check_out_dir, staging_dir
+    from scenarios.experiments.protocol import RunSpec, UserError
+    from scenarios.experiments.run_files import write_run
 
-    out = args.out or Path("renders") / "run"
+    out = check_out_dir(args.out if args.out is not None else Path("renders") / "run")
     if args.replay is not None:
         if args.scenario:
             raise UserError("give either a scenario or --replay MANIFEST, not both")
-        out = args.out or args.replay.parent / "replay"
-        doc, specs = read_manifest(args.replay, scratch=out)
+        out = check_out_dir(args.out or args.replay.parent / "replay")
+        doc, specs = read_manifest(args.replay, scratch=staging_dir(out).with_suffix(".replay"))
         note = numerics_note(doc)
         if note:
             print(f"mrta: note: {args.replay}: {note}", file=sys.stderr)
@@ -165,87 +153,30 @@ def cmd_run(args) -> int:
             avoidance_overrides(args),
             stream_file=str(args.stream) if args.stream else "",
         )
-    checkpoint = out / "checkpoint.npz" if (args.checkpoint or args.resume) else None
-    if args.resume and not checkpoint.is_file():
-        raise UserError(f"{checkpoint}: no checkpoint to resume from (run with --checkpoint first)")
-    scenario = load_named(spec.scenario)
-    apply_overrides(scenario, spec.overrides)  # a bad override stops here, before OUT is made
-    manifest = build_manifest(scenario, [spec])
-    out.mkdir(parents=True, exist_ok=True)
-    desc = f"run {spec.allocator} on {scenario.name}"
-    with progress_bar(protocol_rounds(scenario), desc, "round", not args.no_progress) as bar:
-        summary = execute(
-            spec,
-            checkpoint=checkpoint,
-            resume=args.resume,
-            task_table=True,
-            on_round=bar.update,
-            stall_map=True,
-        )
-    write_manifest(out, manifest)  # only once the run succeeded: a failed run leaves OUT as it was
-    table = summary.pop("task_table")
-    stalls = summary.pop("stall_map", None)
-    places = ""
-    if scenario.spatial is not None:
-        from scenarios.experiments.figures import fig_run_spatial
-        from scenarios.experiments.output import write_csv_atomic
-
-        write_csv_atomic(out / "tasks.csv", table)
-        fig_run_spatial(table, summary["spatial"], spec.cost, out / "spatial.png")
-    if stalls is not None:
-        places = write_stall_map(out, stalls, scenario.spatial)
-    metrics = {
-        "scenario": scenario.name,
-        "cost_model": spec.cost,
-        "seeds": [spec.seed],
-        "allocators": {spec.allocator: aggregate([summary])},
-    }
-    write_json_atomic(out / "metrics.json", metrics)
-    if "faults" in summary:
-        from scenarios.experiments.figures import fig_faults_run
-
-        fig_faults_run(summary["faults"], out / "faults.png")
-    comp = summary["completion"]["overall"]
+    done = write_run(
+        spec,
+        out,
+        checkpoint=args.checkpoint or args.resume,
+        resume=args.resume,
+        progress=not args.no_progress,
+    )
+    comp = done.summary["completion"]["overall"]
     print(
-        f"{spec.allocator} on {scenario.name} ({spec.cost} cost, seed {spec.seed}): completion "
-        f"low {comp['low']:.3f} high {comp['high']:.3f} all {comp['all']:.3f}; "
+        f"{spec.allocator} on {done.metrics['scenario']} ({spec.cost} cost, seed {spec.seed}): "
+        f"completion low {comp['low']:.3f} high {comp['high']:.3f} all {comp['all']:.3f}; "
         f"wrote {out}/metrics.json"
     )
-    if scenario.spatial is not None:
+    if "spatial" in done.summary:
         from scenarios.experiments.figures import contact_line, stall_line
+        from scenarios.experiments.protocol import load_named
+        from sim.scenario.overrides import apply_overrides
 
-        sp = scenario.spatial
-        print(contact_line(summary["spatial"], contacts=sp.contacts).replace("\n", "; "))
-        print(stall_line(summary["spatial"], sp.stalls))
-        if places:
-            print(places + f" (map: {out}/stalls.png, stalls.npz)")
+        sp = apply_overrides(load_named(spec.scenario), spec.overrides).spatial
+        print(contact_line(done.summary["spatial"], contacts=sp.contacts).replace("\n", "; "))
+        print(stall_line(done.summary["spatial"], sp.stalls))
+        if done.stall_places:
+            print(done.stall_places + f" (map: {out}/stalls.png, stalls.npz)")
     return 0
-
-
-def write_stall_map(out: Path, stalls: dict, spatial) -> str:
-    """``stalls.npz`` (``seconds``: robot-s standing by cause and cell, ``causes``, ``cell_m``,
-    ``arena_wh``) and ``stalls.png`` of a run; returns the line naming where robots stood
-    longest."""
-    import numpy as np
-
-    from scenarios.experiments.figures import fig_stall_map, places_line, stall_places
-    from scenarios.experiments.output import write_npz_atomic
-    from sim.spatial.stalls import CAUSES
-
-    seconds, cell_m = stalls["seconds"], float(stalls["cell_m"])
-    arena = (spatial.width_m, spatial.height_m)
-    write_npz_atomic(
-        out / "stalls.npz",
-        {
-            "seconds": seconds,
-            "causes": np.array(CAUSES),
-            "cell_m": np.array(cell_m),
-            "arena_wh": np.array(arena),
-        },
-    )
-    still = spatial.stalls.still_mps
-    fig_stall_map(seconds, cell_m, arena, spatial.obstacles, out / "stalls.png", still)
-    return places_line(stall_places(seconds, cell_m), cell_m)
 
 
 def cmd_compare(args) -> int:
@@ -270,66 +201,37 @@ def cmd_compare(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from scenarios.experiments.progress import progress_bar, protocol_rounds
-    from scenarios.experiments.protocol import (
-        RunSpec,
-        UserError,
-        apply_overrides,
-        execute,
-        load_named,
-    )
-    from sim.recording import TrajectoryRecorder
-    from sim.render import render_gif, render_mp4
-    from sim.render.style import fitted_height
+    from scenarios.experiments.protocol import RunSpec, UserError, load_named
+    from scenarios.experiments.run_files import render_run
 
     sc = load_named(args.scenario)
     if sc.spatial is None:
         raise UserError(
             f"{args.scenario}: render needs a spatial scenario (one with a [spatial] table)"
         )
-    if args.fps > 50:
-        raise UserError(f"--fps {args.fps}: a GIF plays at most 50 frames per second")
-    sets = min(args.sets, sc.stream.n_sets)
+    if args.sets > sc.stream.n_sets:
+        raise UserError(f"--sets {args.sets}: {sc.name!r} has {sc.stream.n_sets} task sets")
+    sets = args.sets
     overrides = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
     overrides += avoidance_overrides(args)
-    for path in (args.gif, args.mp4, args.trajectory):
-        if path is not None and not path.parent.is_dir():
-            raise UserError(f"{path.parent}: output folder does not exist")
-    recorder = TrajectoryRecorder.for_scenario(sc)
     spec = RunSpec(args.scenario, args.allocator, args.cost, args.seed, overrides)
-    rounds = protocol_rounds(apply_overrides(sc, overrides))
-    with progress_bar(rounds, f"render: simulate {sc.name}", "round", not args.no_progress) as bar:
-        execute(spec, recorder=recorder, on_round=bar.update)
-    traj = recorder.finish()
-    end = float(traj.times_s[-1])
-    t_to = args.t_to if args.t_to is not None else min(end, args.t_from + 180.0)
-    if not 0 <= args.t_from < t_to <= end:
-        raise UserError(
-            f"--from {args.t_from} / --to {t_to}: need 0 <= from < to <= {end:.1f} s (end of run)"
-        )
-    if args.trajectory is not None:
-        traj.save(args.trajectory)
-    width, height = args.size
-    size = (width, height if height is not None else fitted_height(width, traj.arena_wh))
-    kw = {
-        "frames": args.frames,
-        "fps": args.fps,
-        "size": size,
-        "t_from": args.t_from,
-        "t_to": t_to,
-        "trail_s": args.trail,
-    }
-    try:
-        desc = f"render: draw {args.frames} frames"
-        with progress_bar(args.frames, desc, "frame", not args.no_progress) as bar:
-            render_gif(traj, args.gif, on_frame=bar.update, **kw)
-        if args.mp4 is not None:
-            render_mp4(traj, args.mp4, **kw)
-    except (ValueError, RuntimeError) as exc:
-        raise UserError(str(exc)) from None
+    done = render_run(
+        spec,
+        args.gif,
+        frames=args.frames,
+        fps=args.fps,
+        size=tuple(args.size),
+        t_from=args.t_from,
+        t_to=args.t_to,
+        trail_s=args.trail,
+        mp4=args.mp4,
+        trajectory=args.trajectory,
+        progress=not args.no_progress,
+    )
+    w, h = done.size
     print(
-        f"wrote {args.gif} ({args.frames} frames of {size[0]}x{size[1]} px, "
-        f"{args.t_from:.0f}-{t_to:.0f} s of {end:.0f} s)"
+        f"wrote {args.gif} ({args.frames} frames of {w}x{h} px, "
+        f"{done.t_from:.0f}-{done.t_to:.0f} s of {done.end_s:.0f} s)"
     )
     return 0
 
@@ -346,10 +248,12 @@ def cmd_hardcase(args) -> int:
     if args.case not in CASES:
         hint = did_you_mean(args.case, CASES)
         raise UserError(f"hard case {args.case!r} unknown{hint}; choose from {', '.join(CASES)}")
-    if args.gif is not None and not args.gif.parent.is_dir():
-        raise UserError(f"{args.gif.parent}: output folder does not exist")
-    if args.fps > 50:
-        raise UserError(f"--fps {args.fps}: a GIF plays at most 50 frames per second")
+    if args.gif is not None:
+        from scenarios.experiments.outdir import check_out_file
+
+        check_out_file(args.gif, "--gif")
+    if not 1 <= args.fps <= 50:
+        raise UserError(f"--fps {args.fps}: a GIF plays 1 to 50 frames per second")
     if args.seeds > 1 and args.jitter == 0.0:
         raise UserError(f"--seeds {args.seeds} without --jitter would repeat one run")
     if args.seeds > 1 and args.gif is not None:
@@ -548,6 +452,35 @@ def cmd_study(args) -> int:
     return 0
 
 
+def cmd_map_sites(args) -> int:
+    import numpy as np
+
+    from scenarios.experiments.protocol import UserError
+    from sim.maps import load_map
+    from sim.maps.placement import free_places
+
+    if (args.types is None) == (args.names is None):
+        raise UserError("map-sites needs either --types N or --names T1,T2,...")
+    names = args.names or [f"T{i + 1}" for i in range(args.types)]
+    occ = load_map(args.map)
+    rng = np.random.default_rng(args.seed)
+    n = len(names) * args.per_type
+    places = free_places(occ, n + args.robots, rng, clearance_m=args.clearance, min_gap_m=args.gap)
+    print(
+        f"# {n} sites on {args.map}'s free floor ({args.clearance:g} m clear, {args.gap:g} m "
+        f"apart, seed {args.seed}), in the map's frame (m)"
+    )
+    print("[spatial.sites]")
+    for k, name in enumerate(names):
+        pts = places[k * args.per_type : (k + 1) * args.per_type]
+        print(f"{name} = [" + ", ".join(f"[{x:.2f}, {y:.2f}]" for x, y in pts) + "]")
+    if args.robots:
+        print(f"# start points for {args.robots} robots (start = [x, y] in each [[robots]])")
+        for j, (x, y) in enumerate(places[n:]):
+            print(f"# R{j + 1}: start = [{x:.2f}, {y:.2f}]")
+    return 0
+
+
 COMMANDS = {
     "validate": cmd_validate,
     "reproduce": cmd_reproduce,
@@ -560,4 +493,5 @@ COMMANDS = {
     "sweep": cmd_sweep,
     "study": cmd_study,
     "soak": cmd_soak,
+    "map-sites": cmd_map_sites,
 }

@@ -41,24 +41,45 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"mrta: error: {message} (see '{hint}')\n")
 
 
+MAX_SEEDS = 10_000  # seeds one command runs (scenarios.experiments.budget.MAX_SEEDS)
+
+
 def _seed_list(text: str) -> list[int]:
-    """'10' -> seeds 0..9; '3,5,8' -> those seeds; '2-6' -> 2..6."""
+    """'10' -> seeds 0..9; '3,5,8' -> those seeds; '2-6' -> 2..6; at most MAX_SEEDS seeds,
+    counted before any list is built."""
     try:
         if "," in text:
-            seeds = [int(s) for s in text.split(",") if s.strip()]
+            parts = [s for s in text.split(",") if s.strip()]
+            _seed_count(len(parts))
+            seeds = [int(s) for s in parts]
         elif "-" in text.strip("-"):
             a, b = text.split("-", 1)
-            seeds = list(range(int(a), int(b) + 1))
+            lo, hi = int(a), int(b)
+            _seed_count(hi - lo + 1)
+            seeds = list(range(lo, hi + 1))
         else:
             n = int(text)
             if n < 1:
                 raise argparse.ArgumentTypeError(f"need at least one seed, got {n}")
+            _seed_count(n)
             seeds = list(range(n))
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a seed count or list: {text!r}") from None
     if not seeds or min(seeds) < 0:
         raise argparse.ArgumentTypeError(f"seeds must be non-negative integers: {text!r}")
     return seeds
+
+
+def _out_path(text: str) -> Path:
+    """argparse type of an output path: not empty (``Path('')`` would be the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path names no file or folder")
+    return Path(text)
+
+
+def _seed_count(n: int) -> None:
+    if n > MAX_SEEDS:
+        raise argparse.ArgumentTypeError(f"{n:,} seeds: at most {MAX_SEEDS:,} in one command")
 
 
 def _float_list(text: str) -> tuple[float, ...]:
@@ -178,6 +199,15 @@ def fault_option(text: str) -> tuple[tuple[str, object], ...]:
 _non_negative_int = int_at_least(0)
 
 
+def _version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("expt-mrta")
+    except metadata.PackageNotFoundError:  # a source checkout that is not installed
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     from learning.registry import PAPER_ALLOCATORS, available
 
@@ -186,6 +216,12 @@ def build_parser() -> argparse.ArgumentParser:
         description="Multi-robot task allocation: market auction, QL-MRTA and ExpT-MRTA "
         "(Ezercan Kayır) in an abstract cost world or a pymunk world.",
         epilog="Scenarios are bundled names (mrta validate --list) or TOML paths.",
+    )
+    p.add_argument("--version", action="version", version=f"mrta (expt-mrta) {_version()}")
+    p.add_argument(
+        "--debug",
+        action="store_true",
+        help="on an error, also print the traceback (a failing plug-in allocator, say)",
     )
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
@@ -231,7 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
         "0.02,0.03,0.05,0.08,0.1,0.2,0.3,0.5 abstract; 0.02,0.3 distance/time)",
     )
     r.add_argument(
-        "--out", type=Path, default=None, help="output folder (default renders/<scenario>/)"
+        "--out", type=_out_path, default=None, help="output folder (default renders/<scenario>/)"
     )
     r.add_argument("--workers", type=_positive_int, default=None, help=WORKERS)
     r.add_argument("--robot", default="R5", help="robot whose experience fig2 shows (default R5)")
@@ -250,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("stream", help="write a seeded task stream to JSON or CSV for replay")
     s.add_argument("scenario", help=SCENARIO)
     s.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
-    s.add_argument("--out", type=Path, required=True, help="FILE.json or FILE.csv")
+    s.add_argument("--out", type=_out_path, required=True, help="FILE.json or FILE.csv")
 
     run = sub.add_parser(
         "run",
@@ -293,7 +329,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--cost", choices=COSTS, default="abstract", help="bid cost model")
     run.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     run.add_argument("--stream", type=Path, default=None, help="replay a stream file (mrta stream)")
-    run.add_argument("--out", type=Path, default=None, help="output folder (default renders/run/)")
+    run.add_argument(
+        "--out", type=_out_path, default=None, help="output folder (default renders/run/)"
+    )
     _avoidance_option(run)
     run.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
     c = sub.add_parser(
@@ -325,7 +363,10 @@ def build_parser() -> argparse.ArgumentParser:
         "5 make the 95%% intervals unreliable)",
     )
     c.add_argument(
-        "--out", type=Path, default=None, help="output folder (default renders/compare/<scenario>)"
+        "--out",
+        type=_out_path,
+        default=None,
+        help="output folder (default renders/compare/<scenario>)",
     )
     c.add_argument("--workers", type=_positive_int, default=None, help=WORKERS)
     _avoidance_option(c)
@@ -346,31 +387,43 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--seed", type=_non_negative_int, default=0, help="run seed")
     g.add_argument("--sets", type=_positive_int, default=2, help="task sets to play (default 2)")
     _avoidance_option(g)
-    g.add_argument("--gif", type=Path, required=True, help="output GIF path")
-    g.add_argument("--mp4", type=Path, default=None, help="also write an MP4 (needs ffmpeg)")
+    g.add_argument("--gif", type=_out_path, required=True, help="output GIF path")
+    g.add_argument("--mp4", type=_out_path, default=None, help="also write an MP4 (needs ffmpeg)")
     _gif_options(g, frames=200, fps=20, width=600)
     g.add_argument(
-        "--from", dest="t_from", type=float, default=0.0, help="start, simulated s (default 0)"
+        "--from",
+        dest="t_from",
+        type=_non_negative_float,
+        default=0.0,
+        help="start, simulated s (default 0)",
     )
     g.add_argument(
         "--to",
         dest="t_to",
-        type=float,
+        type=_positive_float,
         default=None,
         help="end, simulated s (default: --from + 180 or the end of the run)",
     )
     g.add_argument(
-        "--trail", type=float, default=10.0, help="trail length, simulated s (default 10)"
+        "--trail",
+        type=_non_negative_float,
+        default=10.0,
+        help="trail length, simulated s (default 10)",
     )
-    g.add_argument("--trajectory", type=Path, default=None, help="also save the recording (.npz)")
+    g.add_argument(
+        "--trajectory", type=_out_path, default=None, help="also save the recording (.npz)"
+    )
     g.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
 
     b = sub.add_parser(
         "bench",
         help="speed and memory: simulation loop, GIF rendering, allocation, as ratios in one run",
-        description="Measure, in this process, the full simulation loop against bare "
-        "space.step (10/100/1000 robots), our GIF writer against FuncAnimation + PillowWriter, "
-        "and allocation time per round against team size. --json prints one JSON object.",
+        description="Measure, in this process: the spatial loop at 10, 100 and 1000 robots in "
+        "the units users pay (real-time factor, wall seconds per simulated robot-hour, the price "
+        "of collision avoidance as wall time with over without, and the loop per physics step "
+        "in steps of a fixed calibration space); our GIF writer against FuncAnimation + "
+        "PillowWriter; allocation time per round against team size. --json prints one JSON "
+        "object. Compare the ratios, not absolute times: machines are shared and noisy.",
     )
     b.add_argument("--json", action="store_true", help="print one JSON object")
     b.add_argument(
@@ -436,7 +489,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --jitter, run seeds 1..N (one draw of the starts each) and summarise: runs "
         "with a contact, times (default 1)",
     )
-    h.add_argument("--gif", type=Path, default=None, help="also write an animated GIF here")
+    h.add_argument("--gif", type=_out_path, default=None, help="also write an animated GIF here")
     _gif_options(h, frames=150, fps=15, width=480)
     h.add_argument("--json", action="store_true", help="print one JSON object")
     h.add_argument("--no-progress", action="store_true", help=NO_PROGRESS)
@@ -472,7 +525,46 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_sweep_parser(sub)
     add_study_parser(sub)
+    add_map_sites_parser(sub)
     return p
+
+
+def add_map_sites_parser(subparsers) -> argparse.ArgumentParser:
+    """Add ``mrta map-sites MAP.yaml --types N --per-type K [--robots M] [--seed S]``."""
+    p = subparsers.add_parser(
+        "map-sites",
+        help="task sites (and robot starts) on a ROS map's free floor, as a scenario block",
+        description="Draw task sites on the free floor of a ROS map_server map (YAML + PGM/PNG) "
+        "where a robot centre has --clearance metres of room, all in the largest connected "
+        "region of such floor and at least --gap apart, and print them as a [spatial.sites] "
+        "block in the map's frame (metres, as RViz shows them) to paste into a scenario; with "
+        "--robots also start points for that many robots. Seeded: the same seed gives the "
+        "same places.",
+    )
+    p.add_argument("map", type=Path, help="the map's YAML file")
+    p.add_argument(
+        "--types", type=_positive_int, default=None, help="task types T1..TN (or --names)"
+    )
+    p.add_argument("--names", type=_names, default=None, help="task type names, comma-separated")
+    p.add_argument("--per-type", type=_positive_int, default=3, help="sites per task type")
+    p.add_argument("--robots", type=_non_negative_int, default=0, help="robot starts to draw too")
+    p.add_argument(
+        "--clearance",
+        type=_positive_float,
+        default=0.45,
+        help="room a place needs to every wall and obstacle, m (default 0.45: a 0.25 m robot "
+        "with 0.1 m clearance and 0.1 m to spare)",
+    )
+    p.add_argument("--gap", type=_non_negative_float, default=1.0, help="least distance apart, m")
+    p.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the draw")
+    return p
+
+
+def _names(text: str) -> list[str]:
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    if not names or len(set(names)) != len(names):
+        raise argparse.ArgumentTypeError(f"task type names, distinct and comma-separated: {text!r}")
+    return names
 
 
 def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
@@ -487,7 +579,7 @@ def add_sweep_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("spec", help="sweep TOML file, or a bundled sweep name (e.g. delta_u)")
     p.add_argument(
-        "--out", type=Path, default=None, help="output folder (default renders/sweeps/<name>/)"
+        "--out", type=_out_path, default=None, help="output folder (default renders/sweeps/<name>/)"
     )
     p.add_argument(
         "--against",
@@ -536,7 +628,7 @@ def add_study_parser(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("name", choices=sorted(STUDIES), help="which study (refusal, faults)")
     p.add_argument(
-        "--out", type=Path, default=None, help="output folder (default renders/study/<name>/)"
+        "--out", type=_out_path, default=None, help="output folder (default renders/study/<name>/)"
     )
     p.add_argument(
         "--only",

@@ -5,10 +5,19 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from scenarios.experiments.budget import check_work
 from scenarios.experiments.figures import STYLE, allocator_bars, new_figure, save_figure
 from scenarios.experiments.metrics import aggregate
+from scenarios.experiments.outdir import check_out_dir, staged_folder
 from scenarios.experiments.output import write_json_atomic
-from scenarios.experiments.protocol import RunSpec, check_cost, load_named, run_many
+from scenarios.experiments.protocol import (
+    RunSpec,
+    check_cost,
+    default_workers,
+    load_named,
+    run_many,
+)
+from sim.scenario.overrides import apply_overrides
 
 COLUMNS = (
     ("low", "completion low", "{:.3f}"),
@@ -32,12 +41,22 @@ def compare(
     progress: bool = True,
     overrides: tuple[tuple[str, float], ...] = (),
 ) -> dict:
-    """Run every (cost, allocator, seed), write compare.json, compare.md and compare.png."""
-    sc = load_named(scenario)
+    """Run every (cost, allocator, seed), write compare.json, compare.md and compare.png into
+    ``out``, as a whole (:mod:`scenarios.experiments.outdir`)."""
+    out = check_out_dir(out)
+    sc = apply_overrides(load_named(scenario), overrides)
     for cost in costs:
         check_cost(sc, cost)
     combos = [(c, a) for c in costs for a in allocators]
     specs = [RunSpec(scenario, a, c, s, overrides) for c, a in combos for s in seeds]
+    workers = default_workers() if workers is None else workers
+    check_work(sc, len(specs), min(workers, len(specs)))
+    with staged_folder(out) as stage:
+        return _compare_into(stage, sc, seeds, combos, specs, workers, progress)
+
+
+def _compare_into(stage: Path, sc, seeds, combos, specs, workers, progress) -> dict:
+    """Run ``specs`` and write compare's files into ``stage``; returns compare.json's doc."""
     results = run_many(specs, workers=workers, progress=progress, desc=f"compare {sc.name}")
     n = len(seeds)
     table = {}
@@ -45,8 +64,7 @@ def compare(
         agg = aggregate(results[k * n : (k + 1) * n])
         table[f"{cost}/{alloc}"] = {"cost": cost, "allocator": alloc, **_row(agg)}
     doc = {"scenario": sc.name, "seeds": list(seeds), "rows": table}
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = Path(stage)
     write_json_atomic(out / "compare.json", doc)
     (out / "compare.md").write_text(markdown_table(doc) + "\n")
     fig_compare(doc, out / "compare.png")

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from allocation.costs import make_cost_model
+from learning.assembly import build_world, seeded_stream
 from learning.checkpoint import (
     CheckpointError,
     allocator_arrays,
@@ -30,7 +30,6 @@ from learning.checkpoint import (
 )
 from learning.episode import record_arrays, record_from_arrays, run_protocol
 from learning.registry import allocator_class
-from learning.seeding import run_generators
 from scenarios.experiments.metrics import (
     completion_table,
     spatial_metrics,
@@ -38,10 +37,9 @@ from scenarios.experiments.metrics import (
     summarize_run,
 )
 from scenarios.loader import load_scenario
-from sim import make_world
 from sim.scenario import Scenario
 from sim.scenario.overrides import apply_overrides
-from sim.tasks import TaskStream, generate_stream, load_stream
+from sim.tasks import TaskStream, load_stream
 
 
 class UserError(ValueError):
@@ -76,17 +74,16 @@ def check_cost(scenario: Scenario, cost: str) -> None:
 
 
 def build_run(spec: RunSpec):
-    """Scenario, stream, world, cost model, allocator and rngs of a spec, ready to play."""
+    """Scenario, stream, world, cost model, allocator and the world's generator of a spec,
+    ready to play (world and cost model built as the environments build theirs:
+    :mod:`learning.assembly`)."""
     scenario = apply_overrides(load_named(spec.scenario), spec.overrides)
     check_cost(scenario, spec.cost)
-    rngs = run_generators(spec.seed)
+    stream, rngs = seeded_stream(scenario, spec.seed)
     if spec.stream_file:
         stream = load_stream(Path(spec.stream_file))
         check_stream(scenario, stream, spec.stream_file)
-    else:
-        stream = generate_stream(scenario, rngs.stream)
-    world = make_world(scenario)
-    cost = make_cost_model(spec.cost, scenario, getattr(world, "planner", None))
+    world, cost = build_world(scenario, spec.cost)
     allocator = allocator_class(spec.allocator)(scenario)
     allocator.reset(rngs.allocator)
     return scenario, stream, world, cost, allocator, rngs.world
@@ -128,8 +125,6 @@ def execute(
     scenario, stream, world, cost, allocator, rng = build_run(spec)
     if recorder is not None:
         world.recorder = recorder
-    if checkpoint is not None and not hasattr(world, "state_arrays"):
-        raise UserError(f"checkpoints and --resume: the world {type(world).__name__} has no state")
     resume_at = _resume(spec, checkpoint, allocator, world, rng) if resume else None
     on_set_end = None
     if checkpoint is not None:
@@ -169,8 +164,8 @@ def execute(
             **world.summary(record),
         }
         out["per_robot"] = spatial_per_robot(scenario, record)
-        stalls = getattr(world, "stalls", None)
-        if stall_map and stalls is not None:
+        if stall_map:  # a world with space is a sim.spatial.world.PymunkWorld
+            stalls = world.stalls
             out["stall_map"] = {"cell_m": stalls.cell_m, "seconds": stalls.seconds_map()}
     if spec.trace_robot and record.trace_u:
         j = [r.name for r in scenario.robots].index(spec.trace_robot)
@@ -226,6 +221,7 @@ def run_many(
                 results.append(execute(spec))
                 bar.update()
             return results
+        compile_once(specs)
         with ProcessPoolExecutor(max_workers=workers) as pool:
             futures = [pool.submit(execute, spec) for spec in specs]
             try:
@@ -238,6 +234,16 @@ def run_many(
                 raise
     finally:
         bar.close()
+
+
+def compile_once(specs: Sequence[RunSpec]) -> None:
+    """Before worker processes start: compile (or load) the pymunk world's control kernel in
+    this process when a spec is spatial, so a clean install compiles it once, not once per
+    worker (each worker then loads it from the cache)."""
+    if any(load_named(s.scenario).spatial is not None for s in specs):
+        from sim.spatial.control.kernel.loading import ensure_compiled
+
+        ensure_compiled()
 
 
 def default_workers() -> int:

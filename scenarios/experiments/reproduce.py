@@ -6,12 +6,23 @@ from pathlib import Path
 
 from learning.qtable import space_size
 from learning.registry import PAPER_ALLOCATORS
+from scenarios.experiments.budget import check_work
 from scenarios.experiments.figures import fig_completion, fig_robot_trace, fig_tradeoff
 from scenarios.experiments.manifest import build_manifest, write_manifest
 from scenarios.experiments.metrics import aggregate
+from scenarios.experiments.outdir import check_out_dir, staged_folder
 from scenarios.experiments.output import write_json_atomic
-from scenarios.experiments.protocol import RunSpec, check_cost, load_named, run_many
+from scenarios.experiments.protocol import (
+    RunSpec,
+    UserError,
+    check_cost,
+    default_workers,
+    load_named,
+    run_many,
+)
 from scenarios.experiments.reference import PAPER_TABLE2
+from sim.scenario import did_you_mean
+from sim.scenario.overrides import apply_overrides
 
 DEFAULT_DELTA_U_GRID = (0.02, 0.03, 0.05, 0.08, 0.1, 0.2, 0.3, 0.5)
 SPATIAL_DELTA_U_GRID = (0.02, 0.3)  # physics runs cost ~100x more: a short curve by default
@@ -33,12 +44,20 @@ def reproduce(
 
     ``extra_allocators`` (e.g. ``("greedy", "cbba")`` or ``"mypkg.alloc:Mine"``) are run on the
     same streams and appear in metrics.json and fig1 beside the paper's three. ``overrides``
-    (``(("spatial.avoidance", "none"),)``) apply to every run.
+    (``(("spatial.avoidance", "none"),)``) apply to every run. ``out`` is written as a whole
+    (:mod:`scenarios.experiments.outdir`): an interrupted run leaves it as it was.
+
+    Raises:
+        UserError: ``trace_robot`` names no robot of the scenario; the work cannot run here.
+        OutputError: ``out`` cannot be written (checked before any run).
     """
-    sc = load_named(scenario)
+    out = check_out_dir(out)
+    sc = apply_overrides(load_named(scenario), overrides)
     check_cost(sc, cost)
     names = [r.name for r in sc.robots]
-    trace_robot = trace_robot if trace_robot in names else names[0]
+    if trace_robot not in names:
+        hint = did_you_mean(trace_robot, names)
+        raise UserError(f"--robot {trace_robot!r}: no such robot in {sc.name!r}{hint}")
     allocs = list(PAPER_ALLOCATORS) + [a for a in extra_allocators if a not in PAPER_ALLOCATORS]
     specs = [
         RunSpec(
@@ -58,6 +77,15 @@ def reproduce(
         for du in grid
         for s in seeds
     ]
+    workers = default_workers() if workers is None else workers
+    check_work(sc, len(specs), min(workers, len(specs)))
+    with staged_folder(out) as stage:
+        metrics = _reproduce_into(stage, sc, seeds, cost, specs, allocs, grid, workers, progress)
+    return metrics
+
+
+def _reproduce_into(stage, sc, seeds, cost, specs, allocs, grid, workers, progress) -> dict:
+    """Run ``specs`` and write reproduce's files into ``stage``; returns metrics.json's doc."""
     results = run_many(specs, workers=workers, progress=progress, desc=f"reproduce {sc.name}")
     by_alloc = {a: results[k * len(seeds) : (k + 1) * len(seeds)] for k, a in enumerate(allocs)}
     metrics = {
@@ -73,8 +101,7 @@ def reproduce(
         tradeoff_runs[du] = results[start : start + len(seeds)]
     points = [tradeoff_point(du, aggregate(runs)) for du, runs in sorted(tradeoff_runs.items())]
     metrics["tradeoff"] = {"parameter": "experience.delta_u", "points": points}
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = Path(stage)
     write_manifest(out, build_manifest(sc, specs))
     write_json_atomic(out / "metrics.json", metrics)
     fig_completion(metrics, out / "fig1_completion.png")

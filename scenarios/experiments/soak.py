@@ -74,11 +74,11 @@ def soak(
     }
     bar = progress_bar(rounds_total, f"soak {scen.name}", "round", progress)
     count = {"rounds": 0, "no_progress_s": 0.0}
-    fleet_of = getattr(world, "fleet", None)
+    spatial = scen.spatial is not None  # a world with space is a PymunkWorld, with a fleet
 
     def on_round() -> None:
         count["rounds"] += 1
-        f = world.fleet if fleet_of is not None else None
+        f = world.fleet if spatial else None
         if f is not None:
             drv = (f.state == DRIVING) & np.isfinite(f.t_progress_s)
             if drv.any():

@@ -33,8 +33,10 @@ import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
+from scenarios.experiments.budget import check_work
+from scenarios.experiments.outdir import check_out_dir, folder_lock
 from scenarios.experiments.output import write_rows_atomic
-from scenarios.experiments.protocol import RunSpec, UserError, execute
+from scenarios.experiments.protocol import RunSpec, UserError, compile_once, execute, load_named
 from scenarios.sweep.report import metric_row, read_rows, typed_row, write_outputs
 from scenarios.sweep.spec import SweepSpec, load_sweep
 
@@ -74,6 +76,7 @@ def run_sweep(
         UserError, ScenarioError: a bad sweep file, scenario or output folder (one-line message).
     """
     sweep = load_sweep(spec_path)
+    _check_work(sweep, workers)
     client = _dask_client(scheduler) if scheduler else None
     try:
         return _run(sweep, Path(out), workers, client, progress)
@@ -82,10 +85,25 @@ def run_sweep(
             client.close()
 
 
+def _check_work(sweep: SweepSpec, workers: int | None) -> None:
+    """Each scenario's runs against this machine (``budget.check_work``)."""
+    per_scenario: dict[str, int] = {}
+    for run in sweep.runs:
+        per_scenario[run.spec.scenario] = per_scenario.get(run.spec.scenario, 0) + 1
+    procs = _all_cores() if workers is None else workers
+    for name, n in per_scenario.items():
+        check_work(load_named(name), n, min(procs, n))
+
+
 def _run(sweep: SweepSpec, out: Path, workers, client, progress: bool) -> list[dict]:
-    """Resume from ``out/runs.csv``, run what is missing, then write every output in spec order."""
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{out}: --out must be a folder")
+    """Resume from ``out/runs.csv``, run what is missing, then write every output in spec order
+    (under ``out``'s lock: a second sweep into the same folder is refused)."""
+    out = check_out_dir(out)
+    with folder_lock(out):
+        return _run_locked(sweep, out, workers, client, progress)
+
+
+def _run_locked(sweep: SweepSpec, out: Path, workers, client, progress: bool) -> list[dict]:
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "runs.csv"
     header = sweep.columns()
@@ -136,6 +154,7 @@ def _execute_all(sweep: SweepSpec, todo, fh, workers, client, progress) -> dict:
 
 
 def _run_pool(workers: int, todo, record) -> None:
+    compile_once([run.spec for _, run in todo])
     pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
     try:
         pending = {pool.submit(run_metrics, run.spec): (key, run) for key, run in todo}

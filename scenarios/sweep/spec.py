@@ -20,6 +20,7 @@ from typing import Any
 
 from allocation.costs import COST_MODELS
 from learning.registry import AllocatorError, allocator_class
+from scenarios.experiments.budget import MAX_RUNS, MAX_SEEDS
 from scenarios.experiments.protocol import RunSpec
 from scenarios.loader import (
     ScenarioError,
@@ -43,7 +44,6 @@ INFINITE_OK = {path for path, (_, _, meta) in setting_paths().items() if meta.in
 SECTIONS = (*TOP_TABLES, "spatial")
 TOP_KEYS = {"sweep", "fixed", "grid", "points"}
 SWEEP_KEYS = {"name", "description", "scenarios", "allocators", "costs", "seeds"}
-MAX_RUNS = 100_000
 
 Value = bool | int | float | str
 
@@ -175,6 +175,8 @@ class _Parser:
         if isinstance(val, int) and not isinstance(val, bool):
             if val < 1:
                 self.fail("sweep.seeds", f"need at least one seed, got {val}")
+            if val > MAX_SEEDS:
+                self.fail("sweep.seeds", f"{val:,} seeds: at most {MAX_SEEDS:,} in one sweep")
             return tuple(range(val))
         ok = (
             isinstance(val, list)
@@ -185,6 +187,8 @@ class _Parser:
             self.fail("sweep.seeds", "must be a count >= 1 or a non-empty list of integers >= 0")
         if len(set(val)) != len(val):
             self.fail("sweep.seeds", "lists a seed twice")
+        if len(val) > MAX_SEEDS:
+            self.fail("sweep.seeds", f"{len(val):,} seeds: at most {MAX_SEEDS:,} in one sweep")
         return tuple(val)
 
     def value(self, where: str, param: str, val: Any) -> Value:

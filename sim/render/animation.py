@@ -151,6 +151,11 @@ def render_gif(
     return path
 
 
+def ffmpeg_path() -> str | None:
+    """The ``ffmpeg`` program on PATH, or None (MP4s need it; GIFs need only Pillow)."""
+    return shutil.which("ffmpeg")
+
+
 def render_mp4(
     traj: Trajectory,
     path: str | os.PathLike,
@@ -169,7 +174,7 @@ def render_mp4(
         RuntimeError: if ``ffmpeg`` is not on PATH, or it fails (its message is included).
         ValueError: on bad arguments.
     """
-    ffmpeg = shutil.which("ffmpeg")
+    ffmpeg = ffmpeg_path()
     if ffmpeg is None:
         raise RuntimeError(
             "render_mp4 needs the ffmpeg program on PATH and it was not found; install ffmpeg "

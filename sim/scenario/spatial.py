@@ -21,6 +21,7 @@ from sim.scenario.schema import check_settings, fail, kind_of, required, setting
 
 AVOIDANCE = ("orca", "none")
 LOOK_AHEAD = ("off", "on")
+TRAFFIC_RULES = ("off", "on")
 MAX_GRID_CELLS = 4_000_000
 MAX_SITES = 10_000
 MAX_ARENA_M = 10_000.0
@@ -28,6 +29,10 @@ MAX_ARENA_M = 10_000.0
 
 def _positive(default: float, doc: str, hi: float, unit: str = "", **meta: Any) -> Any:
     return setting(default, doc, unit=unit, lo=0.0, lo_open=True, hi=hi, **meta)
+
+
+def _between(default: float, doc: str, lo: float, hi: float, unit: str = "") -> Any:
+    return setting(default, doc, unit=unit, lo=lo, hi=hi)
 
 
 def _share(default: float, doc: str, hi: float = 1.0, unit: str = "") -> Any:
@@ -49,18 +54,20 @@ class DriveSpec(_Section):
     """The differential-drive robot body (``[spatial.drive]``)."""
 
     SECTION: ClassVar[str] = "spatial.drive"
-    radius_m: float = _positive(0.25, "robot radius (a disc)", 5.0, "m")
-    mass_kg: float = _positive(20.0, "robot mass", 10_000.0, "kg")
-    wheel_base_m: float = _positive(
-        0.4, "distance between the wheels (at most 2 radius_m)", 10, "m"
+    radius_m: float = _between(0.25, "robot radius (a disc)", 0.01, 5.0, "m")
+    mass_kg: float = _between(20.0, "robot mass", 0.1, 10_000.0, "kg")
+    wheel_base_m: float = _between(
+        0.4, "distance between the wheels (at most 2 radius_m)", 0.01, 10.0, "m"
     )
-    wheel_radius_m: float = _positive(0.08, "wheel radius", 2.0, "m")
-    max_wheel_speed_radps: float = _positive(
-        18.75, "top wheel speed (top speed = this x wheel_radius_m)", 1000.0, "rad/s"
+    wheel_radius_m: float = _between(0.08, "wheel radius", 0.005, 2.0, "m")
+    max_wheel_speed_radps: float = _between(
+        18.75, "top wheel speed (top speed = this x wheel_radius_m)", 0.1, 1000.0, "rad/s"
     )
-    max_wheel_accel_radps2: float = _positive(25.0, "wheel acceleration limit", 10_000, "rad/s^2")
-    traction_mps2: float = _positive(
-        6.0, "motor force limit per kg: how hard a robot can push", 100.0, "m/s^2"
+    max_wheel_accel_radps2: float = _between(
+        25.0, "wheel acceleration limit", 0.1, 10_000.0, "rad/s^2"
+    )
+    traction_mps2: float = _between(
+        6.0, "motor force limit per kg: how hard a robot can push", 0.1, 100.0, "m/s^2"
     )
 
     def __post_init__(self) -> None:
@@ -70,10 +77,11 @@ class DriveSpec(_Section):
                 "spatial.drive.wheel_base_m",
                 "wheels must fit inside the robot (wheel_base_m <= 2 * radius_m)",
             )
-        if self.max_speed_mps > 50.0:
+        if not 0.01 <= self.max_speed_mps <= 50.0:
             fail(
                 "spatial.drive.max_wheel_speed_radps",
-                f"top speed {self.max_speed_mps:g} m/s (wheel speed x wheel radius) above 50 m/s",
+                f"top speed {self.max_speed_mps:g} m/s (wheel speed x wheel radius) outside "
+                "[0.01, 50] m/s",
             )
 
     @property
@@ -307,6 +315,62 @@ class JamSpec(_Section):
 
 
 @dataclass(frozen=True, slots=True)
+class TrafficSpec(_Section):
+    """Traffic rules for single-lane passages (``[spatial.traffic]``; avoidance on): passages
+    found from the geometry, entered under a directional lock (``sim.spatial.traffic``)."""
+
+    SECTION: ClassVar[str] = "spatial.traffic"
+    rules: str = setting(
+        "off", "single-lane passages entered under a directional lock", choices=TRAFFIC_RULES
+    )
+    passage_m: float = _share(
+        0.0,
+        "a gap narrower than this is a single-lane passage (0: two lanes, "
+        "2 (2 radius_m + 2 orca.margin_m) + 2 clearance_m)",
+        100.0,
+        "m",
+    )
+    chain_m: float = _share(
+        2.5, "passages this close along a path are one chain, entered at once", 100.0, "m"
+    )
+    request_m: float = _share(
+        1.2, "a robot asks for a passage this far before its mouth (along its path)", 100.0, "m"
+    )
+    hold_m: float = _share(
+        0.35, "a robot kept out holds a radius plus this before the mouth", 10.0, "m"
+    )
+    aside_m: float = _share(
+        0.7, "... moved this far aside of the lane where there is room", 10.0, "m"
+    )
+    exit_clear_m: float = _share(
+        0.2,
+        "entry only while a radius plus this of path beyond the exit is free of standing robots",
+        10.0,
+        "m",
+    )
+    release_m: float = _share(
+        0.1, "a robot frees a passage once its centre is a radius plus this past it", 10.0, "m"
+    )
+    turn_s: float = _share(
+        10.0,
+        "after this much opposing wait no robot enters a passage the way it is used",
+        3600.0,
+        "s",
+    )
+    hold_max_s: float = _positive(
+        60.0,
+        "a robot kept out this long drives on without the lock (the jam rules apply)",
+        3600,
+        "s",
+    )
+    at_work: str = setting(
+        "on",
+        "a robot at work that leaves less than two lanes beside it makes a temporary passage",
+        choices=TRAFFIC_RULES,
+    )
+
+
+@dataclass(frozen=True, slots=True)
 class StallSpec(_Section):
     """The stall meter: where driving robots stand still and why (``[spatial.stalls]``)."""
 
@@ -351,7 +415,13 @@ class SpatialSpec:
     obstacles: tuple[tuple[tuple[float, float], ...], ...] = ()  # convex polygons, m
     sites: tuple[tuple[tuple[float, float], ...], ...] = ()  # per task type: task points, m
     drive: DriveSpec = table(DriveSpec, "the robot body")
-    dt_s: float = _positive(1.0 / 60.0, "physics time step (too coarse above 0.05)", 0.05, "s")
+    dt_s: float = _between(
+        1.0 / 60.0,
+        "physics time step (too coarse above 0.05, too costly below 1e-4)",
+        1e-4,
+        0.05,
+        "s",
+    )
     control_hz: float = setting(
         20.0,
         "control rate (at most 1 / dt_s; robots overshoot below 2)",
@@ -362,7 +432,9 @@ class SpatialSpec:
     arrive_tol_m: float = _positive(
         0.3, "a robot this close to its task point has arrived", 10, "m"
     )
-    grid_res_m: float = _positive(0.25, "cell side of the occupancy grid (drawing only)", 10.0, "m")
+    grid_res_m: float = _between(
+        0.25, "cell side of the occupancy grid (drawing only)", 0.01, 10.0, "m"
+    )
     stuck_timeout_s: float = _positive(
         20.0, "a robot without progress this long is stuck (backs off and replans)", 3600.0, "s"
     )
@@ -388,6 +460,7 @@ class SpatialSpec:
     make_way: MakeWaySpec = table(MakeWaySpec, "idle robots stepping aside")
     recovery: RecoverySpec = table(RecoverySpec, "stuck robots")
     jams: JamSpec = table(JamSpec, "jams between driving robots")
+    traffic: TrafficSpec = table(TrafficSpec, "traffic rules for single-lane passages")
     stalls: StallSpec = table(StallSpec, "the stall meter")
     contacts: ContactSpec = table(ContactSpec, "the contact solver")
 
@@ -403,7 +476,7 @@ class SpatialSpec:
                 "spatial.control_hz",
                 f"control ({self.control_hz:g} Hz) cannot run faster than physics (1/dt_s)",
             )
-        if self.width_m * self.height_m / self.grid_res_m**2 > MAX_GRID_CELLS:
+        if self.width_m * self.height_m > MAX_GRID_CELLS * self.grid_res_m**2:
             fail("spatial.grid_res_m", f"the grid would have more than {MAX_GRID_CELLS:,} cells")
         object.__setattr__(self, "obstacles", self._obstacles(self.obstacles))
 
@@ -452,7 +525,7 @@ class SpatialSpec:
 
 
 _TABLES = ("drive", "law", "orca", "follow", "queue", "make_way", "recovery", "jams", "stalls")
-_TABLES += ("contacts",)
+_TABLES += ("contacts", "traffic")
 
 
 def point(val: Any, where: str) -> tuple[float, float]:
@@ -475,6 +548,7 @@ __all__ = [
     "LOOK_AHEAD",
     "MAX_GRID_CELLS",
     "MAX_SITES",
+    "TRAFFIC_RULES",
     "ContactSpec",
     "DriveSpec",
     "FollowSpec",
@@ -486,5 +560,6 @@ __all__ = [
     "RecoverySpec",
     "SpatialSpec",
     "StallSpec",
+    "TrafficSpec",
     "point",
 ]

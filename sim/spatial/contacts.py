@@ -10,7 +10,7 @@ law's
 Solver iterations follow the contacts. While nothing touches, each robot is joined only to its own
 kinematic control body, whose mass is infinite, so the solver's constraints are independent of
 each other and one iteration solves each exactly: the result is the same, bit for bit, as with
-ten (``tests/sim/test_physics.py`` checks this). The moment a contact begins, in the begin
+ten (``tests/behaviour/test_physics.py`` checks this). The moment a contact begins, in the begin
 callback, which pymunk calls during collision detection and so before that step's solver runs,
 the space switches to ``iterations``; when the last contact separates (again before the
 solver) it goes back to one.

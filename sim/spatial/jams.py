@@ -29,6 +29,19 @@ from sim.spatial.sites import Sites
 from sim.spatial.stalls import nearest_other
 from sim.states import DRIVING, WORKING
 
+# the rules, as counted (Jams.fired): a jam acted on at once, a way round taken, a wait for one
+# of the jam that went round, a back-out, a wait for the one backing out, a way round a robot
+# at work, a way planned past robots at work ahead
+JAM_RULES = (
+    "break_jams",
+    "go_round",
+    "wait_round",
+    "give_way",
+    "wait_give_way",
+    "pass_workers",
+    "look_ahead",
+)
+
 
 class Jams:
     """The jam rules for a fleet of robots.
@@ -43,6 +56,11 @@ class Jams:
             ``max_recoveries``: tries, shared with the stuck recovery).
         refresh: brings the schedule up to date after an event
         (:meth:`sim.spatial.jobs.Jobs.refresh`).
+        held: (m,) robots holding before a passage (``sim.spatial.traffic``), shared with the
+            owner: like a robot holding in a site's queue, not in a jam.
+
+    Attributes:
+        fired: how often each rule acted since reset, by name (``JAM_RULES``).
 
     Attributes (per robot, (m,)):
         origin: where it was given its task (x + iy), m: a robot that gives way backs out
@@ -60,6 +78,7 @@ class Jams:
         controller: DiffDriveController,
         spatial: SpatialSpec,
         refresh: Callable[[], None],
+        held: np.ndarray | None = None,
     ) -> None:
         self.fleet, self.sites = fleet, sites
         self.follower, self.planner, self.controller = follower, planner, controller
@@ -67,6 +86,8 @@ class Jams:
         self.rules = spatial.jams
         self.refresh = refresh
         m = len(fleet.state)
+        self.held = np.zeros(m, dtype=bool) if held is None else held
+        self.fired = dict.fromkeys(JAM_RULES, 0)
         self.origin = fleet.site.copy()
         self.around_s = np.full(m, -np.inf)
         self.due = np.zeros(m, dtype=bool)  # look_ahead: robots given a task ...
@@ -86,6 +107,7 @@ class Jams:
             return False
         if (self.around_s[close] == t).any():  # another of this jam just went round
             f.t_progress_s[j] = t
+            self.fired["wait_round"] += 1
             return True
         site = (f.site[j].real, f.site[j].imag)
         path = self.planner.path_around(
@@ -100,6 +122,7 @@ class Jams:
         self.around_s[j] = t
         self.follower.set_path(j, path)
         f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.fired["go_round"] += 1
         self.refresh()
         return True
 
@@ -151,6 +174,7 @@ class Jams:
                 continue
             fol.set_path(j, path)
             f.progress_m[j], f.t_progress_s[j] = np.inf, t
+            self.fired["look_ahead"] += 1
             self.refresh()
 
     def way_left_m(self, j: int) -> float:
@@ -208,6 +232,7 @@ class Jams:
             (f.state == DRIVING)
             & (np.abs(f.v_cmd_mps) < self.spatial.stalls.still_mps)
             & ~self.sites.holding
+            & ~self.held
         )
         still &= ~f.replan & (f.backoff_until_s <= t) & (t - f.t_progress_s >= self.rules.pass_s)
         rows = still.nonzero()[0]
@@ -226,8 +251,9 @@ class Jams:
         longer than the path it has left (else no robot is in its way: it stands for another
         reason, such as turning) by at most ``pass_extra_m``, and the extra drive at top speed
         takes less than the work left. Not a recovery try: waiting beside a robot at
-        work that is in the way is not being stuck, only slow (README, "Collision
-        avoidance"); a robot that does not take the path is asked again in the next period."""
+        work that is in the way is not being stuck, only slow (docs/model/spatial-world.md,
+        "Jams and deadlock"); a robot that does not take the path is asked again in the next
+        period."""
         f, z = self.fleet, self.fleet.last_z_m
         v_max, radius = self.follower.v_max_mps, self.controller.radius_m
         service = self.sites.service
@@ -255,6 +281,7 @@ class Jams:
                 continue  # the way it has (no robot in it), too long, or slower than waiting
             self.follower.set_path(j, path)
             f.progress_m[j], f.t_progress_s[j] = np.inf, t
+            self.fired["pass_workers"] += 1
             self.refresh()
 
     def break_jams(self, t: float, near: list[tuple[int, int]] | None = None) -> None:
@@ -281,6 +308,7 @@ class Jams:
             lane = self.single_lane(j, k, standing) or self.single_lane(k, j, standing)
             if not (lane or self.standoff(j, k, driving)):
                 continue
+            self.fired["break_jams"] += 1
             if not self.go_round(j, t):
                 self.give_way(j, t)
 
@@ -330,7 +358,10 @@ class Jams:
         bounded. True if j gave way or waits."""
         f, z = self.fleet, self.fleet.last_z_m
         close = (
-            (f.state == DRIVING) & ~self.sites.holding & (np.abs(z - z[j]) < self.rules.deadlock_m)
+            (f.state == DRIVING)
+            & ~self.sites.holding
+            & ~self.held
+            & (np.abs(z - z[j]) < self.rules.deadlock_m)
         )
         close[j] = False
         if not close.any():
@@ -340,6 +371,7 @@ class Jams:
         free = [k for k in jam.tolist() if f.recoveries[k] < tries and not self.backed_in(k)]
         if j != max(free or jam.tolist()):
             f.t_progress_s[j] = t  # the other one gives way: wait for it
+            self.fired["wait_give_way"] += 1
             return True
         if f.recoveries[j] >= tries:
             return False
@@ -352,6 +384,7 @@ class Jams:
         f.recoveries[j] += 1
         self.follower.set_path(j, np.concatenate([back, on[1:]]))
         f.progress_m[j], f.t_progress_s[j] = np.inf, t
+        self.fired["give_way"] += 1
         self.refresh()
         return True
 

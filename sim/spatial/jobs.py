@@ -22,9 +22,15 @@ from sim.spatial.jams import Jams
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
 from sim.spatial.sites import Sites
+from sim.spatial.traffic import Traffic
 from sim.states import DRIVING, IDLE, WORKING
 from sim.tasks import Batch
 from sim.world import Abandon, Completion
+
+# what the stuck recovery does, counted (Jobs.fired): an idle robot asked aside, a wait for a
+# robot at work nearby or at its site, a detour round a robot that stands, a blind back-off, a
+# task failed for good
+RECOVERY_RULES = ("ask_idle", "wait_worker", "wait_site", "detour", "backoff", "failed")
 
 
 class Jobs:
@@ -62,6 +68,13 @@ class Jobs:
         broken: (m,) robots broken down, written in place by the world (``sim.faults``).
         sites: the sites' service slots and queues (:class:`sim.spatial.sites.Sites`).
         jams: the rules for jams between driving robots (:class:`sim.spatial.jams.Jams`).
+        traffic: the traffic rules for single-lane passages
+            (:class:`sim.spatial.traffic.Traffic`; None unless avoidance is on and
+            ``[spatial.traffic] rules = "on"``).
+        held: (m,) robots holding before a passage (written by ``traffic``).
+        fired: how often each of the stuck recovery's rules acted since reset, by name
+            (``ask_idle``, ``wait_worker``, ``wait_site``, ``detour``, ``backoff``, ``failed``);
+            the jam rules' are ``jams.fired``.
     """
 
     def __init__(
@@ -96,6 +109,8 @@ class Jobs:
         self.broken = np.zeros(len(fleet.state), dtype=bool)  # set by the world (sim.faults)
         self.base_planner = planner  # the scenario's obstacles alone (use_planner adds robots)
         self.blocked = np.zeros(len(fleet.state), dtype=bool)  # waiting for a repair
+        self.held = np.zeros(len(fleet.state), dtype=bool)  # holding before a passage
+        self.fired = dict.fromkeys(RECOVERY_RULES, 0)
         # the same refresh as refresh(), without a reference back to the jobs (no cycle to collect)
         refresh = functools.partial(refresh_schedule, fleet, schedule, clock, keep_lists)
         self.sites = Sites(
@@ -110,6 +125,7 @@ class Jobs:
             broken=self.broken,
             blocked=self.blocked,
             refresh=refresh,
+            held=self.held,
         )
         self.jams = Jams(
             fleet=fleet,
@@ -119,12 +135,28 @@ class Jobs:
             controller=controller,
             spatial=spatial,
             refresh=refresh,
+            held=self.held,
         )
+        self.traffic = None
+        if avoid and spatial.traffic.rules == "on":
+            self.traffic = Traffic(
+                fleet=fleet,
+                sites=self.sites,
+                follower=follower,
+                planner=planner,
+                controller=controller,
+                spatial=spatial,
+                held=self.held,
+                refresh=refresh,
+                clear_way=self.clear_way,
+            )
 
     def use_planner(self, planner: GridPlanner) -> None:
         """Plan with ``planner`` from now on, here and in the sites' and jam rules (the world's
         fault model hands over one that knows where the broken robots stand)."""
         self.planner = self.sites.planner = self.jams.planner = planner
+        if self.traffic is not None:
+            self.traffic.planner = planner
 
     def assign(
         self, batch: Batch, assignment: np.ndarray, bids: np.ndarray, won: np.ndarray, xy_m
@@ -354,11 +386,13 @@ class Jobs:
         if blocked and f.state[b] == WORKING and f.work_end_s[b] - t <= sp.stuck_timeout_s:
             # boxed in by a robot at work that is nearly done: not stuck, wait for it
             f.t_progress_s[j] = f.work_end_s[b]
+            self.fired["wait_worker"] += 1
             return
         if self.avoid:
             taken = (f.state == WORKING) & (np.abs(z - f.site[j]) < 2.0 * self.controller.radius_m)
             if taken.any():  # its site is taken by a robot at work: wait for it to step clear
                 f.t_progress_s[j] = float(f.work_end_s[taken].min())
+                self.fired["wait_site"] += 1
                 return
             if self.ask_idle(j, t) or self.jams.go_round(j, t) or self.jams.give_way(j, t):
                 return
@@ -367,6 +401,7 @@ class Jobs:
         self.schedule.recovering = True
         if f.recoveries[j] > sp.max_recoveries:
             why = f"stuck: no progress for {sp.stuck_timeout_s:g} s after {sp.max_recoveries} tries"
+            self.fired["failed"] += 1
             return self.finish(j, t, False, why)
         if blocked and f.state[b] != DRIVING:
             travel = np.exp(1j * self.bodies[j].angle)
@@ -376,7 +411,9 @@ class Jobs:
             if len(path):  # go round the robot that stands in the way
                 self.follower.set_path(j, path)
                 f.progress_m[j], f.t_progress_s[j] = np.inf, t
+                self.fired["detour"] += 1
                 return
+        self.fired["backoff"] += 1
         c = self.controller
         turn = self.rng.uniform(-0.5, 0.5) * c.omega_max_radps
         f.backoff_cmd[j] = (-0.3 * c.v_max_mps, turn)
@@ -417,10 +454,11 @@ class Jobs:
         f.yielding[k], f.yield_until_s[k] = True, t + self.stepping.timeout_s
         f.recoveries[j] += 1
         f.t_progress_s[j] = t
+        self.fired["ask_idle"] += 1
         self.refresh()
         return True
 
-    def step_off(self, k: int, j: int, z: np.ndarray) -> np.ndarray:
+    def step_off(self, k: int, j: int, z: np.ndarray, way: np.ndarray | None = None) -> np.ndarray:
         """A short path (collision avoidance on) that takes idle robot k off the way of robot j:
         ``make_way.step_m``, else twice that, to the side of j's way away from j, the other side or
         straight on along it (j's next path segment; its heading without a path), to the first
@@ -431,10 +469,14 @@ class Jobs:
         only moved the jam: in the warehouse (market, seed 6) an idle robot ahead of a driving
         one was stepped into the 1 m cross-aisle gap that the driving robot's way ran through,
         and the driving robot stood at the gap's mouth until its task failed. (0, 2) if no step
-        will do."""
+        will do. ``way``: j's way ahead (x + iy) if not its path (a robot holding before a
+        passage: its way through it)."""
         r = self.controller.radius_m
         fol = self.follower
-        ahead = fol.points[j, fol.index[j] : fol.last[j] + 1] if fol.last[j] >= 0 else z[j:j]
+        if way is None:
+            ahead = fol.points[j, fol.index[j] : fol.last[j] + 1] if fol.last[j] >= 0 else z[j:j]
+        else:
+            ahead = np.asarray(way, dtype=complex)
         way = np.concatenate([[z[j]], ahead])
         travel = next((d / abs(d) for d in ahead - z[j] if abs(d) > 1e-6), None)
         if travel is None:
@@ -462,6 +504,20 @@ class Jobs:
                     continue
                 return path
         return np.zeros((0, 2))
+
+    def clear_way(self, k: int, j: int, way: np.ndarray, t: float) -> bool:
+        """Idle robot k stands on ``way``, robot j's way through a passage it holds for: k
+        steps off it (:meth:`step_off`); not a recovery try. True if it does."""
+        f = self.fleet
+        if f.yielding[k] or self.broken[k] or f.state[k] != IDLE:
+            return False
+        path = self.step_off(k, j, f.last_z_m, way)
+        if not len(path):
+            return False
+        self.follower.set_paths([k], [path])
+        f.yielding[k], f.yield_until_s[k] = True, t + self.stepping.timeout_s
+        self.refresh()
+        return True
 
     def recovered(self, rows: list[int]) -> None:
         """Robots ``rows`` came ``recovered_m`` closer to their site than where they last got
@@ -527,18 +583,37 @@ class Jobs:
         if self.done:
             raise RuntimeError("jobs state requested with completions not handed out")
         sites = self.sites.state_arrays()
-        return {
+        out = {
             "slotted": sites.pop("slotted"),
             "origin": self.jams.origin.copy(),
             **sites,
             "failures": np.array(self.failures, dtype=np.int64),
         }
+        if self.traffic is not None:  # the counts of the rules (between sets nobody holds)
+            out["traffic_counts"] = self.traffic.count_array()
+            out["rule_counts"] = np.array([*self.fired.values(), *self.jams.fired.values()])
+        return out
 
     def restore_arrays(self, arrays: dict[str, np.ndarray]) -> None:
         """Inverse of :meth:`state_arrays`."""
         self.sites.restore_arrays(arrays)
         self.jams.origin = np.array(arrays["origin"], dtype=complex)
         self.failures = int(arrays["failures"])
+        if self.traffic is not None and "traffic_counts" in arrays:
+            self.traffic.restore_counts(arrays["traffic_counts"])
+            counts = np.asarray(arrays["rule_counts"]).tolist()
+            n = len(self.fired)
+            self.fired = dict(zip(self.fired, counts[:n], strict=True))
+            self.jams.fired = dict(zip(self.jams.fired, counts[n:], strict=True))
+
+    def traffic_summary(self) -> dict[str, float]:
+        """With the traffic rules on: their counts (``traffic_*``) and how often each jam
+        and recovery rule acted (``traffic_jam_<rule>``, :attr:`fired` and ``jams.fired``);
+        empty otherwise."""
+        if self.traffic is None:
+            return {}
+        fired = {**self.fired, **self.jams.fired}
+        return {**self.traffic.summary(), **{f"traffic_jam_{k}": v for k, v in fired.items()}}
 
     def stop_yield(self, j: int) -> None:
         """Robot j stops yielding (the caller calls :meth:`refresh` after)."""

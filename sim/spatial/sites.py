@@ -46,6 +46,8 @@ class Sites:
             broken robots), shared with the owner: they are not in a site's queue.
         refresh: brings the schedule up to date after an event
         (:meth:`sim.spatial.jobs.Jobs.refresh`).
+        held: (m,) robots holding before a passage (``sim.spatial.traffic``), shared with the
+            owner: the traffic rules decide where they wait, not a site's queue.
 
     Attributes (per robot, (m,)):
         service: the service point of its task (x + iy), m; ``fleet.site`` is its place.
@@ -69,6 +71,7 @@ class Sites:
         broken: np.ndarray,
         blocked: np.ndarray,
         refresh: Callable[[], None],
+        held: np.ndarray | None = None,
     ) -> None:
         self.fleet, self.schedule = fleet, schedule
         self.follower, self.planner, self.controller = follower, planner, controller
@@ -79,6 +82,7 @@ class Sites:
         self.blocked = blocked
         self.refresh = refresh
         m = len(fleet.state)
+        self.held = np.zeros(m, dtype=bool) if held is None else held
         self.slotted = np.zeros(m, dtype=bool)
         self.service = fleet.site.copy()
         self.admitted = np.zeros(m, dtype=bool)
@@ -111,8 +115,8 @@ class Sites:
         changed, idle = False, []
         for j in rows:
             site = f.site[j]
-            if self.slotted[j] or self.holding[j]:
-                continue  # a slot already, or holding in the site's queue
+            if self.slotted[j] or self.holding[j] or self.held[j]:
+                continue  # a slot already, holding in the site's queue or before a passage
             if not len(standing) or np.abs(z[standing] - site).min() >= room:
                 continue  # the service point is free
             on_it = standing[np.abs(z[standing] - site) < room]
@@ -152,6 +156,7 @@ class Sites:
         has ``hold_max_s`` more. Schedules the next check."""
         f, z = self.fleet, self.fleet.last_z_m
         driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t) & ~self.blocked
+        driving &= ~self.held
         if not driving.any():
             self.queue_check_s = np.inf
             return

@@ -5,9 +5,9 @@ stands still for that period (turning in place, waiting for a way through, holdi
 queue). :class:`StallMeter` counts those periods by cause: the site queue it holds in, or the
 nearest other robot within ``near_m`` and what that robot does (the robot collision avoidance
 stops it for is not always the one a speed cap names, so the meter looks for itself). With collision
-avoidance on, this is where the time goes that avoidance costs (README, "Collision
-avoidance"): ``mrta run`` prints it on one line and its ``metrics.json`` holds it under
-``spatial`` as ``still_s_<cause>``, ``driving_s`` and the share of the driving time
+avoidance on, this is where the time goes that avoidance costs (docs/model/spatial-world.md,
+"What the world measures"): ``mrta run`` prints it on one line and its ``metrics.json`` holds it
+under ``spatial`` as ``still_s_<cause>``, ``driving_s`` and the share of the driving time
 (``still_share``).
 
 Short stops and jams: a stand is the unbroken run of standing periods of one robot on one

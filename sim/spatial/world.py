@@ -29,11 +29,11 @@ Who does what: the world builds the space and owns the fleet state (``sim.spatia
 arrays, the schedule of checks, the clock), which it hands to its collaborators: the task
 bookkeeping (``sim.spatial.jobs.Jobs``, with the sites' slots and queues, ``sim.spatial.sites``, and
 the jam rules, ``sim.spatial.jams``), the control period (``sim.spatial.control``), the motors
-(``sim.spatial.motors.Motors``) and the contact monitor. The control period exists twice with the
-same formulas, chosen by the ``control`` argument: over numpy arrays (``ArrayControl``), and robot
-by robot in plain Python (``ScalarControl``), where numpy's per-call overhead would dominate; by
-default the scalar one for teams of up to ``SMALL_TEAM`` robots. The tests run both from copies
-of the same state and check that they command the same wheels.
+(``sim.spatial.motors.Motors``) and the contact monitor. The control period is chosen by the
+``control`` argument: by default the compiled one (``CompiledControl``: numba, one call per period
+for the whole fleet, events in Python) for every team size; its numpy twins over arrays
+(``ArrayControl``) and robot by robot (``ScalarControl``) stay as the reference the tests compare
+it with, from copies of the same state.
 
 A task's robot plans a path to the site, drives, arrives within ``arrive_tol_m`` (or beside robots
 already standing at the site), works for the type's execution time and stays where it finished.
@@ -90,8 +90,8 @@ class PymunkWorld:
     Args:
         scenario: a scenario with a ``spatial`` table.
         recorder: optional ``sim.recording.TrajectoryRecorder`` fed robot poses while running.
-        control: the control period: ``"array"``, ``"scalar"`` or ``"auto"`` (scalar for teams
-            of up to ``sim.spatial.control.SMALL_TEAM`` robots, else array).
+        control: the control period: ``"compiled"``, ``"array"``, ``"scalar"`` or ``"auto"``
+            (compiled, for every team size; ``sim.spatial.control.control_kind``).
         check_layout: refuse a layout a scenario file could not hold (robots on each other or
             in a wall, a site no robot can reach: ``sim.spatial.layout``). Tests of states a
             run can reach but not start from (robots touching, a task out of reach) pass False.
@@ -100,7 +100,7 @@ class PymunkWorld:
 
     Attributes:
         planner: the :class:`GridPlanner` the distance and time cost models bid with.
-        control_kind: the control period in use, ``"array"`` or ``"scalar"``.
+        control_kind: the control period in use, ``"compiled"``, ``"array"`` or ``"scalar"``.
         fleet: the per-robot state (:class:`sim.spatial.fleet.FleetState`), rebuilt by
         :meth:`reset`. schedule, clock: the schedule of checks and the physics-step clock, rebuilt
         likewise. jobs, control, motors, contacts, follower: the collaborators :meth:`reset` builds.
@@ -467,6 +467,7 @@ class PymunkWorld:
             "max_overlap_m": self.contacts_max_overlap_m,
             "failed_tasks": self.jobs.failures,
             **self.stalls.summary(),
+            **self.jobs.traffic_summary(),  # traffic_*: only with [spatial.traffic] rules on
         }
 
     def _control(self) -> None:
@@ -483,13 +484,17 @@ class PymunkWorld:
                 self.recorder.poses(t, xy, f.last_th_rad, shown)
             return
         self.control.period(t)
+        holding = self.jobs.sites.holding
         if self.jobs.avoid:
+            if self.jobs.traffic is not None:  # single-lane passages, before the jam rules
+                self.jobs.traffic.period(t)
+                holding = holding | self.jobs.held
             if self.spatial.look_ahead == "on":
                 self.jobs.jams.look_ahead(t)
             near = self.jobs.jams.standing_near(t)
             self.jobs.jams.pass_workers(t, near)
             self.jobs.jams.break_jams(t, near)
-        self.stalls.sample(f, self.jobs.sites.holding)
+        self.stalls.sample(f, holding)
         if self.recorder is not None:
             shown = shown_states(f.state, f.t_progress_s, t)
             self.recorder.poses(t, self.motors.flat[:, :2], f.last_th_rad, shown)

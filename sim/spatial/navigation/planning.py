@@ -54,7 +54,8 @@ def inflate(poly: np.ndarray, d_m: float) -> np.ndarray:
     lines_n, lines_c = [], []
     for i in range(len(poly)):
         prev = normal[i - 1]
-        # dot products written out (not @): BLAS rounds them by CPU model (tests/test_golden.py)
+        # dot products written out (not @): BLAS rounds them by CPU model
+        # (tests/golden/test_golden.py)
         if prev[0] * normal[i, 0] + prev[1] * normal[i, 1] < 0.0:
             bis = prev + normal[i]
             bis /= np.sqrt(bis[0] * bis[0] + bis[1] * bis[1])

@@ -1,0 +1,191 @@
+"""The passages of an arena as the traffic rules see them: the geometry's, found at load, and the
+temporary ones of robots at work, kept up to date; and where a robot may hold before one.
+
+:class:`PassageMap` answers the geometric questions of ``sim.spatial.traffic.rules``: which
+passages a robot's path is annotated with, whether a point is in a passage, whether a point
+before a mouth is a holding point (free space, in no passage, off the lane out of the mouth,
+room to pass it), whether a robot can hold between two passages (else they are one chain),
+and where a robot kept out holds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from sim.scenario import SpatialSpec
+from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.traffic.annotate import Chain, Crossing, hold_points, left_along
+from sim.spatial.traffic.geometry import as_complex, to_segments, walls
+from sim.spatial.traffic.passages import (
+    Passage,
+    find_passages,
+    lane_m,
+    two_lanes_m,
+    worker_passage,
+)
+
+LANE_OUT_M = 2.0  # a holding point keeps a pass off this much of the lane out of a mouth, m
+HOLD_STEP_M = 0.25  # holding points are looked for every this much farther back, m
+
+
+class PassageMap:
+    """Every passage of an arena by key, and the geometry of holding before one.
+
+    Args:
+        spatial: the arena and its rules (``[spatial.traffic]``, ``orca.margin_m``,
+            ``clearance_m``).
+        radius_m: the robots' radius.
+        planner: tells free space (a holding point must be on it).
+
+    Attributes:
+        passages: the geometry's passages (keys 0 .. ``n_static`` - 1) and the temporary ones
+            of robots at work (key ``n_static`` + the robot's index).
+        passage_m, lane_m: two lanes and one lane (``sim.spatial.traffic.passages``), m.
+        pass_m: a robot passes one that stands this far from its way, m (two radii and
+            ORCA's margins).
+    """
+
+    def __init__(self, spatial: SpatialSpec, radius_m: float, planner: GridPlanner) -> None:
+        self.spec, self.planner = spatial.traffic, planner
+        r = self.radius_m = radius_m
+        margin, clear = spatial.orca.margin_m, spatial.clearance_m
+        self.passage_m = self.spec.passage_m or two_lanes_m(r, margin, clear)
+        self.lane_m = lane_m(r, margin, clear)
+        self.pass_m = 2.0 * r + 2.0 * margin
+        w, h = spatial.width_m, spatial.height_m
+        static = find_passages(spatial.obstacles, w, h, self.passage_m, 2.0 * (r + clear))
+        self.n_static = len(static)
+        self.passages: dict[int, Passage] = dict(enumerate(static))
+        self.shapes = [as_complex(p) for p in spatial.obstacles] + walls(w, h)
+        self.boxes = np.array(
+            [[s.real.min(), s.imag.min(), s.real.max(), s.imag.max()] for s in self.shapes]
+        )
+        self.room_: dict[tuple[int, int, int, int], bool] = {}  # room_between, static pairs
+
+    # -- passages -------------------------------------------------------------------------
+    def inside(self, key: int, z: complex, pad_along_m: float) -> bool:
+        """True if point z is in passage ``key`` grown by ``pad_along_m`` at its ends and a
+        radius at its sides (False for a passage that is gone)."""
+        p = self.passages.get(key)
+        return p is not None and p.holds(z, pad_along_m, self.radius_m)
+
+    def narrowed_by_walls(self, w: int) -> bool:
+        """True if robot w at work leaves less than two lanes to the obstacles beside it."""
+        p = self.passages.get(self.n_static + w)
+        return p is not None and p.by_walls
+
+    def passable(self, w: int) -> bool:
+        """True unless robot w at work closes its aisle (its temporary passage is closed)."""
+        p = self.passages.get(self.n_static + w)
+        return p is None or p.passable
+
+    def for_robot(self, j: int, end: complex, service: np.ndarray) -> dict[int, Passage]:
+        """The passages robot j's path (ending at ``end``) may be annotated with: not the
+        temporary passage of a robot at work at its own site (``service``: each robot's
+        service point), nor one its path ends in (it goes to that robot's site's queue, not
+        past it)."""
+        r, out = self.radius_m, {}
+        for key, p in self.passages.items():
+            if p.worker >= 0 and (
+                p.worker == j or abs(service[p.worker] - service[j]) < 1e-6 or p.holds(end, r, r)
+            ):
+                continue
+            out[key] = p
+        return out
+
+    def update_workers(self, changed: np.ndarray, work: np.ndarray, z: np.ndarray) -> tuple:
+        """Robots ``changed`` began or ended work (``work``: who works now, at ``z``): their
+        temporary passages, and those of the robots at work near them (their room depends on
+        each other), are made again. Returns the keys dropped and the number of new
+        passages."""
+        r = self.radius_m
+        dropped = []
+        for w in changed.tolist():
+            if self.passages.pop(self.n_static + w, None) is not None:
+                dropped.append(self.n_static + w)
+        made = 0
+        if not work.any() or not len(changed):
+            return dropped, made
+        reach = 2.0 * (self.passage_m + 2.0 * r)
+        near = work & (np.abs(z[:, None] - z[changed][None, :]) < reach).any(axis=1)
+        for w in near.nonzero()[0].tolist():
+            key = self.n_static + w
+            was = self.passages.pop(key, None)
+            others = z[work & (np.abs(z - z[w]) < reach)]
+            others = others[np.abs(others - z[w]) > 1e-9]
+            shapes = self._shapes_near(z[w])
+            p = worker_passage(w, complex(z[w]), r, shapes, others, self.passage_m, self.lane_m)
+            if p is not None and len(others):
+                alone = worker_passage(w, complex(z[w]), r, shapes, others[:0], self.passage_m, 0)
+                p = dataclasses.replace(p, by_walls=alone is not None)
+            if p is not None:
+                self.passages[key] = p
+                made += was is None
+            elif was is not None:
+                dropped.append(key)
+        return dropped, made
+
+    def _shapes_near(self, z: complex) -> list[np.ndarray]:
+        """The obstacles and walls within two lanes and a radius of point z."""
+        d = self.passage_m + self.radius_m
+        b = self.boxes
+        keep = (b[:, 0] <= z.real + d) & (b[:, 2] >= z.real - d)
+        keep &= (b[:, 1] <= z.imag + d) & (b[:, 3] >= z.imag - d)
+        return [s for s, k in zip(self.shapes, keep.tolist(), strict=True) if k]
+
+    # -- holding --------------------------------------------------------------------------
+    def open_spot(self, spot: complex, to_left: complex, key: int, direction: int) -> bool:
+        """A holding point before passage ``key`` (entered in ``direction``) as far as the
+        geometry goes: on free space, in no passage, off the lane straight out of the mouth
+        (``LANE_OUT_M`` of it) by a pass, and a robot passes it on its left."""
+        r, passer = self.radius_m, spot + to_left * self.pass_m
+        free = self.planner.free_one
+        if not (free(spot.real, spot.imag) and free(passer.real, passer.imag)):
+            return False
+        p = self.passages.get(key)
+        if p is not None:
+            mouth = p.mouth(direction)
+            lane_end = mouth - direction * LANE_OUT_M * p.axis
+            off, _ = to_segments(np.array([spot]), np.array([mouth]), np.array([lane_end]))
+            if off[0] < self.pass_m - 1e-9:
+                return False
+        return not any(q.holds(spot, r, r) for q in self.passages.values())
+
+    def room_between(self, pts: np.ndarray, a: Crossing, b: Crossing) -> bool:
+        """True if a robot on the path ``pts`` that has left crossing ``a`` can hold before
+        crossing ``b`` (:meth:`open_spot`, at least a radius plus ``release_m`` past ``a``'s
+        exit): then the two are not one chain. Remembered for a pair of the geometry's
+        passages (it depends on the geometry alone)."""
+        key = (a.key, a.direction, b.key, b.direction)
+        static = a.key < self.n_static and b.key < self.n_static
+        if static and key in self.room_:
+            return self.room_[key]
+        r, back = self.radius_m, self.radius_m + self.spec.hold_m
+        room = a.exit_left_m - b.entry_left_m - r - self.spec.release_m
+        room = min(room, left_along(pts)[0] - b.entry_left_m)
+        found = False
+        if room >= back:
+            steps = int((room - back) / HOLD_STEP_M)
+            spots = hold_points(pts, b.entry_left_m, back, self.spec.aside_m, HOLD_STEP_M, steps)
+            found = any(self.open_spot(s, left, b.key, b.direction) for s, left in spots)
+        if static:
+            self.room_[key] = found
+        return found
+
+    def spot(self, pts: np.ndarray, chain: Chain, others: np.ndarray, keep_m: float):
+        """Where a robot on the path ``pts`` kept out of ``chain`` holds: the first of
+        ``annotate.hold_points`` that is a holding point (:meth:`open_spot`), a radius plus
+        ``hold_m`` or more from the mouth and ``keep_m`` from every point of ``others`` (the
+        other robots, and the points others hold at); None if there is none."""
+        back = self.radius_m + self.spec.hold_m
+        mouth = chain.zone[0]
+        key, direction = chain.passages[0]
+        for s, to_left in hold_points(pts, chain.entry_left_m, back, self.spec.aside_m):
+            if abs(s - mouth) < back - 1e-6 or not self.open_spot(s, to_left, key, direction):
+                continue
+            if len(others) and np.abs(others - s).min() < keep_m:
+                continue
+            return s
+        return None

@@ -1,0 +1,135 @@
+"""``sim.spatial.traffic.geometry`` and ``passages``: passages found from the geometry, with
+exact numbers on hand-built arenas.
+
+Robots of radius 0.25 m, ORCA margin 0.05 m, clearance 0.1 m: two lanes are 1.4 m, one lane
+beside a robot at work 0.7 m, and no robot centre fits a gap of 0.7 m or less.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sim.spatial.traffic.geometry import (
+    as_complex,
+    clip_line,
+    clip_segments,
+    polygon_gap,
+    walls,
+)
+from sim.spatial.traffic.passages import (
+    find_passages,
+    lane_m,
+    pair_passage,
+    two_lanes_m,
+    worker_passage,
+)
+
+R, MARGIN, CLEAR = 0.25, 0.05, 0.1
+TWO_LANES = two_lanes_m(R, MARGIN, CLEAR)
+LANE = lane_m(R, MARGIN, CLEAR)
+MIN_GAP = 2 * (R + CLEAR)
+
+
+def box(x0, y0, x1, y1):
+    return ((x0, y0), (x1, y0), (x1, y1), (x0, y1))
+
+
+def test_lane_widths_follow_from_the_robot_the_margin_and_the_clearance():
+    assert TWO_LANES == pytest.approx(1.4)
+    assert LANE == pytest.approx(0.7)
+
+
+def test_polygon_gap_of_two_squares_and_of_touching_ones():
+    a, b = as_complex(box(0, 0, 1, 1)), as_complex(box(3, 0.5, 4, 1.5))
+    gap, p, q = polygon_gap(a, b)
+    assert gap == pytest.approx(2.0)
+    assert p.real == pytest.approx(1.0) and q.real == pytest.approx(3.0)
+    assert p.imag == pytest.approx(q.imag)
+    assert polygon_gap(a, as_complex(box(0.5, 0.5, 2, 2)))[0] == 0.0  # overlapping
+
+
+def test_clip_line_through_a_square_and_past_it():
+    sq = as_complex(box(1, 1, 3, 2))
+    assert clip_line(0 + 1.5j, 1 + 0j, sq) == pytest.approx((1.0, 3.0))
+    lo, hi = clip_line(0 + 5j, 1 + 0j, sq)
+    assert lo > hi
+
+
+def test_clip_segments_gives_the_part_inside_a_rectangle():
+    a = np.array([-2 + 0j, -2 + 2j, 0 + 0j])
+    b = np.array([2 + 0j, 2 + 2j, 0.5 + 0j])
+    t0, t1 = clip_segments(a, b, 0j, 1 + 0j, 1.0, 0.5)
+    assert t0[0] == pytest.approx(0.25) and t1[0] == pytest.approx(0.75)
+    assert t0[1] > t1[1]  # passes above it
+    assert (t0[2], t1[2]) == (0.0, 1.0)  # wholly inside
+
+
+def test_the_warehouse_cross_aisle_gap_is_a_passage_one_metre_long_and_wide():
+    """Two shelf ends 1 m apart (x 9.5 and 10.5, y 7..8)."""
+    found = find_passages([box(3, 7, 9.5, 8), box(10.5, 7, 17, 8)], 30, 20, TWO_LANES, MIN_GAP)
+    assert len(found) == 1
+    p = found[0]
+    assert p.centre == pytest.approx(10 + 7.5j)
+    assert abs(p.axis.imag) == pytest.approx(1.0)
+    assert (p.half_length_m, p.half_width_m, p.gap_m) == pytest.approx((0.5, 0.5, 1.0))
+    assert p.worker == -1 and p.passable
+
+
+@pytest.mark.parametrize(("gap_m", "found"), [(0.6, 0), (0.9, 1), (1.39, 1), (1.4, 0), (1.6, 0)])
+def test_only_gaps_a_robot_fits_and_two_cannot_pass_in_are_passages(gap_m, found):
+    shelves = [box(3, 7, 10 - gap_m / 2, 8), box(10 + gap_m / 2, 7, 17, 8)]
+    assert len(find_passages(shelves, 30, 20, TWO_LANES, MIN_GAP)) == found
+
+
+def test_an_obstacle_near_the_arena_wall_makes_a_corridor_along_it():
+    """A 4 m long block 1 m from the bottom wall: a passage 4 m long between them."""
+    found = find_passages([box(3, 1, 7, 2)], 12, 8, TWO_LANES, MIN_GAP)
+    assert len(found) == 1
+    p = found[0]
+    assert p.centre == pytest.approx(5 + 0.5j)
+    assert abs(p.axis.real) == pytest.approx(1.0)
+    assert p.half_length_m == pytest.approx(2.0, abs=1e-3)
+    assert p.gap_m == pytest.approx(1.0)
+
+
+def test_a_wedge_gap_ends_where_it_reaches_two_lanes():
+    tri = [(5.0, 1.0), (7.0, 2.0), (3.0, 2.0)]  # tip 1 m above the wall, sides rise 1 in 2
+    p = pair_passage(as_complex(tri), walls(12, 8)[0], TWO_LANES, MIN_GAP)
+    assert p.gap_m == pytest.approx(1.0)
+    # the gap reaches 1.4 m where the sides have risen 0.4 m: 0.8 m either side of the tip
+    assert p.half_length_m == pytest.approx(0.8, abs=1e-3)
+    assert p.centre.real == pytest.approx(5.0, abs=1e-3)
+
+
+def test_a_robot_at_work_in_the_middle_of_a_two_metre_aisle_leaves_a_lane_each_side():
+    shelves = [as_complex(box(1, 4, 15, 5)), as_complex(box(1, 7, 15, 8))]
+    p = worker_passage(3, 8 + 6j, R, shelves, np.zeros(0, complex), TWO_LANES, LANE)
+    assert p is not None and p.worker == 3 and p.passable
+    assert p.centre == pytest.approx(8 + 6j)
+    assert abs(p.axis.real) == pytest.approx(1.0)  # along the aisle
+    assert p.half_width_m == pytest.approx(1.0)  # across the whole aisle
+    assert p.gap_m == pytest.approx(0.75)
+
+
+def test_a_robot_at_work_that_leaves_no_lane_closes_the_aisle():
+    shelves = [as_complex(box(1, 4, 15, 5)), as_complex(box(1, 6.2, 15, 7))]  # 1.2 m aisle
+    p = worker_passage(0, 8 + 5.6j, R, shelves, np.zeros(0, complex), TWO_LANES, LANE)
+    assert p is not None and not p.passable
+    assert p.centre == pytest.approx(8 + 5.6j)
+
+
+def test_another_robot_at_work_across_the_aisle_counts_as_a_wall():
+    """In a 4 m aisle one robot at work leaves two lanes; with another at work across from
+    it, 1.3 m from it, the two leave one lane between them."""
+    shelves = [as_complex(box(1, 4, 15, 5)), as_complex(box(1, 9, 15, 10))]
+    alone = worker_passage(0, 8 + 5.6j, R, shelves, np.zeros(0, complex), TWO_LANES, LANE)
+    assert alone is None
+    pair = worker_passage(0, 8 + 5.6j, R, shelves, np.array([8 + 6.9j]), TWO_LANES, LANE)
+    assert pair is not None and pair.passable
+
+
+def test_a_robot_at_work_on_open_floor_makes_no_passage():
+    assert (
+        worker_passage(0, 5 + 5j, R, walls(10, 10), np.zeros(0, complex), TWO_LANES, LANE) is None
+    )

@@ -463,9 +463,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     h.add_argument(
         "--control",
-        choices=("auto", "array", "scalar"),
+        choices=("auto", "compiled", "array", "scalar"),
         default="auto",
-        help="control period: per robot in Python (scalar), numpy (array), or by team size",
+        help="control period: the compiled kernel (auto, compiled), or its numpy references:"
+        " all robots at once (array) or robot by robot (scalar)",
     )
     h.add_argument(
         "--limit-s",

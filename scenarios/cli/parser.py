@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 from sim.scenario import AVOIDANCE, LOOK_AHEAD
@@ -703,3 +706,16 @@ def _size(text: str) -> tuple[int, int | None]:
     if not (64 <= w <= 4096 and (h is None or 64 <= h <= 4096)):
         raise argparse.ArgumentTypeError(f"size {text} outside 64..4096 pixels per side")
     return w, h
+
+
+def parse_command(argv: Sequence[str]) -> argparse.Namespace:
+    """Parse ``mrta`` arguments (``argv`` without the ``mrta``) as the command line does, for
+    code that holds command lines (the curated samples' table, the docs' checks): a usage
+    error or ``--help`` raises ValueError with argparse's message instead of exiting."""
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            return build_parser().parse_args(list(argv))
+    except SystemExit as exc:
+        message = err.getvalue().strip() or f"mrta {' '.join(argv)}: exit {exc.code}, no command"
+        raise ValueError(message) from None

@@ -4,7 +4,9 @@
 Written by every sweep that varies ``spatial.avoidance`` with ``"none"`` among its values
 (``mrta sweep avoidance``, ``avoidance_seeds5_9``, ``avoidance_wide``): for each scenario,
 allocator, cost model (and the values of any other swept parameter), each avoidance setting
-against ``"none"`` on the seeds both have, with issue 15's targets checked. These are the
+against ``"none"`` on the seeds both have, with issue 15's targets checked. Settings that act
+only with avoidance on (``spatial.orca.*``, ``spatial.traffic.*``) share one set of ``"none"``
+runs: a sweep need not run ``"none"`` once per value of them. These are the
 README's before-and-after tables; re-running the sweep into a finished folder rewrites them
 without running anything.
 
@@ -47,6 +49,9 @@ TARGETS = {
     "failed": ("no failed task", 0),
 }
 NEEDED = MOTION_METRICS  # a run without them (an abstract scenario) is left out
+# Settings that act only with avoidance on: a group that varies them finds its "none" runs in
+# any group that differs from it only in them (a sweep runs "none" once, not once per value).
+AVOIDANCE_ONLY = ("spatial.orca.", "spatial.traffic.")
 
 
 def _mean(xs) -> float:
@@ -95,9 +100,13 @@ def avoidance_rows(records: list[dict], parameters) -> list[dict]:
             continue
         key = (r["scenario"], r["allocator"], r["cost"], *(r[p] for p in others))
         groups.setdefault(key, {}).setdefault(r[PARAMETER], {})[r["seed"]] = r
+    shared: dict[tuple, dict[int, dict]] = {}  # the "none" runs by key less AVOIDANCE_ONLY
+    for key, by_value in groups.items():
+        if BASELINE in by_value:
+            shared.setdefault(_base_key(key, others), by_value[BASELINE])
     rows = []
     for key, by_value in groups.items():
-        base = by_value.get(BASELINE)
+        base = by_value.get(BASELINE) or shared.get(_base_key(key, others))
         if not base:
             continue
         for value, runs in by_value.items():
@@ -131,6 +140,13 @@ def avoidance_rows(records: list[dict], parameters) -> list[dict]:
             }
             rows.append(row)
     return rows
+
+
+def _base_key(key: tuple, others: list[str]) -> tuple:
+    """``key`` (scenario, allocator, cost, other parameters' values) without the values of the
+    parameters that act only with avoidance on."""
+    keep = [not p.startswith(AVOIDANCE_ONLY) for p in others]
+    return key[:3] + tuple(v for v, k in zip(key[3:], keep, strict=True) if k)
 
 
 def _pct(x: float, se: float | None) -> str:

@@ -77,8 +77,8 @@ def test_bundled_files_are_listed_per_folder():
         "refusal_load",
         "refusal_spatial",
         "spatial_costs",
-        "traffic_paper10",
-        "traffic_warehouse30",
+        "traffic_paper",
+        "traffic_warehouse",
     ]
     assert bundled_toml("no_such_folder") == []
 

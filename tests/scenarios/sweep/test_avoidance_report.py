@@ -157,3 +157,27 @@ def test_the_figure_puts_each_column_on_one_scale(records):
     assert axes[1, 0].get_ylim()[0] < -40.0  # the halved row's bars
     for column in axes.T:
         assert column[0].get_ylim() == column[1].get_ylim()
+
+
+def test_settings_that_act_only_with_avoidance_share_the_none_runs():
+    """Points none+off, orca+off, orca+on (a sweep runs "none" once): the "on" runs are paired
+    with the "none" runs of the "off" group; a parameter that also acts without avoidance
+    (learning.history) is not bridged."""
+    params = ("spatial.avoidance", "spatial.traffic.rules", "learning.history")
+
+    def at(seed, avoidance, rules, tasks, history=4):
+        return run("market", seed, avoidance, tasks, 10.0) | {
+            "spatial.traffic.rules": rules,
+            "learning.history": history,
+        }
+
+    records = [at(s, "none", "off", 100) for s in range(2)]
+    records += [at(s, "orca", "off", 96) for s in range(2)]
+    records += [at(s, "orca", "on", 99) for s in range(2)]
+    records += [at(s, "orca", "on", 50, history=3) for s in range(2)]  # no none run of its own
+    rows = avoidance_rows(records, params)
+    found = {(r["spatial.traffic.rules"], r["learning.history"]): r for r in rows}
+    assert set(found) == {("off", 4), ("on", 4)}
+    assert found["off", 4]["tasks_change"] == pytest.approx(-0.04)
+    assert found["on", 4]["tasks_change"] == pytest.approx(-0.01)
+    assert found["on", 4]["before"]["tasks_allocated"] == 100.0

@@ -92,20 +92,22 @@ def bench_sim(
         ``{str(n): {"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
         "sim_s", "wall_s", "bare_ratio", "bare_steps_per_s",
         "bare10_steps_per_s", "contact_share", "bids_ms", "avoid_share", "avoid_bare_ratio",
-        "sites_share", "sites_bare_ratio", ...}}``: physics steps of the full loop per wall
-        second, simulated / wall seconds, full-loop time per step over bare ``space.step``
-        time per step, the bare loop's steps per second (as the world sets the space, and
-        with ten solver iterations throughout); wall seconds per simulated robot-hour, the
-        loop's time per step in calibration steps (:func:`calibration_step_s` of n robots) and
-        that step's time; the simulated and wall seconds of the timed loop;
+        "sites_share", "sites_bare_ratio", "control_share", "control_calib_ratio", ...}}``: physics
+        steps of the full loop per wall second, simulated / wall seconds, full-loop time per step
+        over bare ``space.step`` time per step, the bare loop's steps per second (as the world sets
+        the space, and with ten solver iterations throughout); wall seconds per simulated
+        robot-hour, the loop's time per step in calibration steps (:func:`calibration_step_s` of n
+        robots) and that step's time; the simulated and wall seconds of the timed loop;
         the share of loop steps with a contact touching, and the milliseconds the
         planned-distance bids of every robot on 7 tasks take (:func:`_bids_ms`); the share of
         the loop's time spent in collision avoidance (``sim.spatial.law.orca``) and that time per
         step over the bare step, and the same for the site work only avoidance brings
         (:func:`timed_sites`; avoidance inside the compiled control period is not timed
-        apart: 0 there). If ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``,
-        ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``; with
-        avoidance, :func:`replan_report`; if the planner built its distance field,
+        apart: 0 there); the share of the loop's time in the control period as a whole
+        (:func:`timed_period`: steering, avoidance, drive law, wheel limits) and that time per
+        physics step in calibration steps. If ``allocate`` keeps ``timings_`` (``bids_s``,
+        ``auction_s``, ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``;
+        with avoidance, :func:`replan_report`; if the planner built its distance field,
         :func:`field_report`.
     """
     rng = np.random.default_rng(0) if rng is None else rng
@@ -130,7 +132,11 @@ def bench_sim(
         _run(world, min(warm_s, sim_s), rng, allocate)
         touching0 = world.contacts.steps_touching
         counts0 = dict(getattr(allocate, "timings_", {}))
-        with timed_avoidance() as avoid_s, timed_sites() as sites_s:
+        with (
+            timed_avoidance() as avoid_s,
+            timed_sites() as sites_s,
+            timed_period(type(world.control)) as control_s,
+        ):
             steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
@@ -160,6 +166,8 @@ def bench_sim(
             "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
             "sites_share": sites_s[0] / wall,
             "sites_bare_ratio": (sites_s[0] / steps) / bare,
+            "control_share": control_s[0] / wall,
+            "control_calib_ratio": (control_s[0] / steps) / calib,
         }
         if counts.get("rounds"):
             rounds = counts["rounds"]
@@ -305,6 +313,28 @@ def timed_avoidance():
         for name, inner in zip(names, inners, strict=True):
             setattr(array_period, name, inner)
             setattr(scalar_period, name, inner)
+
+
+@contextlib.contextmanager
+def timed_period(kind: type):
+    """Time every call of ``kind.period`` (a control period class: the whole period, steering,
+    collision avoidance, drive law, wheel limits) while the block runs, in every world built
+    meanwhile; yields a one-item list whose entry is the wall seconds spent in it so far."""
+    spent = [0.0]
+    inner = kind.__dict__["period"]
+
+    def timed(self, t):
+        t0 = time.perf_counter()
+        try:
+            return inner(self, t)
+        finally:
+            spent[0] += time.perf_counter() - t0
+
+    kind.period = timed
+    try:
+        yield spent
+    finally:
+        kind.period = inner
 
 
 @contextlib.contextmanager

@@ -83,14 +83,15 @@ def bench_paper_loop(
     Returns:
         ``{"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
         "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s", "avoid_share",
-        "avoid_bare_ratio", "sites_share", "sites_bare_ratio"}`` (as
+        "avoid_bare_ratio", "sites_share", "sites_bare_ratio", "control_share",
+        "control_calib_ratio"}`` (as
         :func:`scenarios.bench.loop.bench_sim` says).
     """
     import time
 
     from learning.episode import run_protocol
     from scenarios.bench.calibration import calibration_step_s
-    from scenarios.bench.loop import bare_step_time, timed_avoidance, timed_sites
+    from scenarios.bench.loop import bare_step_time, timed_avoidance, timed_period, timed_sites
     from scenarios.protocol import RunSpec, build_run
     from sim.recording import TrajectoryRecorder
 
@@ -102,7 +103,11 @@ def bench_paper_loop(
     world.recorder = recorder
     steps0 = world.steps_
     t0 = time.perf_counter()
-    with timed_avoidance() as avoid_s, timed_sites() as sites_s:
+    with (
+        timed_avoidance() as avoid_s,
+        timed_sites() as sites_s,
+        timed_period(type(world.control)) as control_s,
+    ):
         run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
     wall = time.perf_counter() - t0
     steps = world.steps_ - steps0
@@ -123,6 +128,8 @@ def bench_paper_loop(
         "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
         "sites_share": sites_s[0] / wall,
         "sites_bare_ratio": (sites_s[0] / steps) / bare,
+        "control_share": control_s[0] / wall,
+        "control_calib_ratio": (control_s[0] / steps) / calib,
     }
 
 
@@ -217,7 +224,7 @@ def bench_sim_part(say) -> dict:
         out["avoidance_price"][n] = price
     say(
         "  robots  avoidance  real-time factor  wall s per robot-hour  loop in calibration "
-        "steps per physics step (calibration step)  loop/bare step"
+        "steps per physics step (calibration step)  of it the control period  loop/bare step"
     )
     for n in out["sim"]:
         for key, label in (("sim", "none"), ("sim_orca", "orca")):
@@ -225,7 +232,7 @@ def bench_sim_part(say) -> dict:
             say(
                 f"  {n:>6}  {label:>9}  {r['rtf']:>16,.1f}  {r['s_per_robot_h']:>21.2f}  "
                 f"{r['calib_ratio']:>14.2f} ({r['calib_step_us']:.1f} us){'':>24}"
-                f"{r['bare_ratio']:.2f}"
+                f"{r['control_calib_ratio']:>6.2f}{'':>16}{r['bare_ratio']:.2f}"
             )
         price = out["avoidance_price"][n]
         what = "paper_spatial, the run loop" if n == "10" else "busy synthetic arena"

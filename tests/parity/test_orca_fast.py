@@ -43,19 +43,32 @@ WALL_SLACK_MPS = OrcaSpec().wall_slack_mps
 
 
 def solve_reference(
-    normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float
+    normal: np.ndarray, offset: np.ndarray, pref: np.ndarray, v_max: float, rows: int = 250
 ) -> np.ndarray:
     """Velocity nearest ``pref`` with |u| <= ``v_max`` and n . u >= c for every line, per row;
-    where no velocity satisfies every line, the candidate that violates them least.
+    where no velocity satisfies every line, the candidate that violates them least. Every
+    row's first candidates are all rows' ``pref`` scaled as its own (the law's pool), so the
+    rows go ``rows`` at a time (the same arithmetic per row: memory, not results).
 
     Args:
         normal, offset: (n, L) unit normals and offsets (unused lines: offset -inf or large
             negative); pref: (n,) preferred velocities.
     """
+    parts = [
+        _solve_reference_rows(
+            normal[i : i + rows], offset[i : i + rows], pref[i : i + rows], pref, v_max
+        )
+        for i in range(0, len(pref), rows)
+    ]
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=complex)
+
+
+def _solve_reference_rows(normal, offset, pref, pool, v_max):
+    """:func:`solve_reference` for some rows, with ``pool`` every row's ``pref``."""
     n, c = normal, offset
     big = c > -_BIG / 2
     speed = np.abs(pref)
-    cands = [pref * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
+    cands = [pool * np.minimum(1.0, v_max / np.maximum(speed, 1e-12))[:, None]]
     along = (pref[:, None] * n.conj()).real
     cands.append(pref[:, None] + (c - along) * n)
     half = np.sqrt(np.maximum(v_max * v_max - c * c, 0.0))

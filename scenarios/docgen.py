@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from scenarios.cli.parser import build_parser
-from scenarios.loader import ROBOT_KEYS, SCENARIO_KEYS, SECTIONS, TOP_SECTIONS, locate
+from scenarios.loader import MAP_KEY, ROBOT_KEYS, SCENARIO_KEYS, SECTIONS, TOP_SECTIONS, locate
 from scenarios.sweep.spec import SWEEP_KEYS, TOP_KEYS
 from sim.atomic import atomic_open
 from sim.scenario import MAX_TYPES, RobotSpec, Scenario, SpatialSpec
@@ -58,6 +58,9 @@ HAND: dict[str, tuple[str, str, str]] = {
         "scenario (unused in the abstract world)"),
     "faults.mttf_by_robot": ("table", "{}", "robots with a mean time to failure of their own, "
         "s, e.g. { R1 = 600.0 } (range of mttf_s)"),
+    f"spatial.{MAP_KEY}": ("string", "none", "a ROS map_server map (.yaml, relative to this "
+        "file) as the arena: its size, and its occupied and unknown cells as obstacles; points "
+        "are then in the map's frame, and width_m and height_m are not given (docs/maps.md)"),
     "spatial.obstacles": ("list of polygons", "[]", "convex polygons [[x, y], ...] inside the "
         "arena, m (3 or more vertices, none collinear)"),
     "spatial.sites": ("table", "required",
@@ -134,7 +137,9 @@ def scenario_tables() -> list[Table]:
         elif top in SECTIONS:
             out.append(spec(top, SECTIONS[top]))
         elif top == "spatial":
-            out += [spec(top, SpatialSpec), ("spatial.sites", None, (SITE_KEY,), INTROS[top])]
+            path, cls, keys, intro = spec(top, SpatialSpec)
+            out += [(path, cls, (MAP_KEY, *keys), intro)]
+            out += [("spatial.sites", None, (SITE_KEY,), INTROS[top])]
             out += [spec(f"spatial.{f.name}", f.default_factory) for f in tables_of(SpatialSpec)]
         else:
             raise DocGenError(f"{top}: a table the loader accepts that the page does not know")

@@ -12,10 +12,14 @@ from __future__ import annotations
 
 import hashlib
 import tomllib
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from sim.maps import MapError, cached_obstacles, load_map
 from sim.scenario import (
     MAX_ROBOTS,
     MAX_TYPES,
@@ -35,7 +39,7 @@ from sim.scenario.schema import (
     kind_of,
     tables_of,
 )
-from sim.spatial.layout import check_layout
+from sim.spatial.layout import Frame, check_layout
 
 SECTIONS = {
     "stream": StreamSpec,
@@ -46,6 +50,7 @@ SECTIONS = {
 TOP_SECTIONS = ("scenario", "robots", *SECTIONS, "spatial")
 SCENARIO_KEYS = ("name", "description", "task_types", "exec_time_s")  # [scenario]
 ROBOT_KEYS = ("name", "capabilities", "cost", "start", "heading_deg")  # each [[robots]]
+MAP_KEY = "map"  # [spatial] map: a ROS map_server map as the arena (file door only)
 
 
 def bundled_toml(folder: str = "") -> list[str]:
@@ -122,14 +127,14 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 def parse_scenario(doc: dict[str, Any], source: str = "<scenario>", sha256: str = "") -> Scenario:
     """Validate a parsed TOML document and build the Scenario (layout checked too)."""
     try:
-        scenario = _build(doc, source, sha256)
-        check_layout(scenario)
+        scenario, frame = _build(doc, source, sha256)
+        check_layout(scenario, frame=frame)
     except ScenarioError as err:
         raise err.located(source) from None
     return scenario
 
 
-def _build(doc: dict[str, Any], source: str, sha256: str) -> Scenario:
+def _build(doc: dict[str, Any], source: str, sha256: str) -> tuple[Scenario, Frame]:
     check_table(doc, "", TOP_SECTIONS)
     head = table(doc, "scenario", required=True)
     check_table(head, "scenario", SCENARIO_KEYS)
@@ -145,8 +150,12 @@ def _build(doc: dict[str, Any], source: str, sha256: str) -> Scenario:
     robots, cost_rows = _robots(doc, types)
     sections = {key: section(doc, key, cls) for key, cls in SECTIONS.items() if key != "faults"}
     faults = section(doc, "faults", FaultSpec, mttf_by_robot=_mttf_by_robot)
-    spatial = _spatial(doc, types) if "spatial" in doc else None
-    return Scenario(
+    spatial, frame = None, Frame()
+    if "spatial" in doc:
+        spatial, frame = _spatial(doc, types, Path(source).parent)
+    if frame.own is not None:  # starts in the map's frame, the world's is its lower-left corner
+        robots = [replace(r, start_xy=_shifted_point(r.start_xy, frame.origin)) for r in robots]
+    scenario = Scenario(
         name=name,
         task_types=tuple(types),
         robots=tuple(robots),
@@ -158,6 +167,7 @@ def _build(doc: dict[str, Any], source: str, sha256: str) -> Scenario:
         source_sha256=sha256,
         **sections,
     )
+    return scenario, frame
 
 
 def _robots(doc: dict, types: list[str]) -> tuple[list[RobotSpec], list[list[Any]]]:
@@ -203,18 +213,85 @@ def _mttf_by_robot(value: Any) -> tuple:
     return tuple(value.items())
 
 
-def _spatial(doc: dict, types: list[str]) -> SpatialSpec:
-    """The ``[spatial]`` table: its sub-tables built as specs, its sites in task-type order."""
-    raw = table(doc, "spatial")
+def _spatial(doc: dict, types: list[str], folder: Path) -> tuple[SpatialSpec, Frame]:
+    """The ``[spatial]`` table: its sub-tables built as specs, its sites in task-type order;
+    with ``map``, the arena and obstacles of the map (:func:`map_arena`), the points of the
+    file moved from the map's frame to the world's; and the frame messages show them in."""
+    raw = dict(table(doc, "spatial"))
+    arena = None
+    if MAP_KEY in raw:
+        for key in ("width_m", "height_m"):
+            if key in raw:
+                fail(f"spatial.{key}", "not allowed beside spatial.map: the map sets the arena")
+        ref = raw.pop(MAP_KEY)
+        if not isinstance(ref, str) or not ref:
+            fail(f"spatial.{MAP_KEY}", f"must be a file name, got {kind_of(ref)}")
+        arena = map_arena(folder / ref)
     check_table(raw, "spatial", SpatialSpec)
     for key in ("width_m", "height_m"):
-        if key not in raw:
-            fail(f"spatial.{key}", "missing")
+        if key not in raw and arena is None:
+            fail(f"spatial.{key}", "missing (or give spatial.map)")
     values = dict(raw)
     for f in tables_of(SpatialSpec):
         values[f.name] = section(raw, f.name, f.default_factory, where=f"spatial.{f.name}")
     values["sites"] = _sites(raw, types)
-    return SpatialSpec(**values)
+    if arena is None:
+        return SpatialSpec(**values), Frame()
+    origin = arena.origin_xy
+    values["width_m"], values["height_m"] = arena.width_m, arena.height_m
+    values["sites"] = tuple(_shifted_points(pts, origin) for pts in values["sites"])
+    own = _shifted_points(values.get("obstacles", ()), origin, depth=2)
+    values["obstacles"] = (*own, *arena.polygons) if isinstance(own, list | tuple) else own
+    n_own = len(own) if isinstance(own, list | tuple) else 0
+    return SpatialSpec(**values), Frame(origin, n_own)
+
+
+@dataclass(frozen=True, slots=True)
+class MapArena:
+    """A ROS map as an arena: its size, its convex obstacles in the arena's frame (the map's
+    lower-left corner at (0, 0)) and the map-frame position of that corner."""
+
+    width_m: float
+    height_m: float
+    polygons: tuple
+    origin_xy: tuple[float, float]
+
+
+def map_arena(path: str | Path) -> MapArena:
+    """Read a ROS map_server map (``.yaml`` and its image) and turn its occupied and unknown
+    cells into convex obstacles (cached per map content: ``sim.maps.cached_obstacles``).
+    For a scenario built in Python: ``SpatialSpec(width_m=a.width_m, height_m=a.height_m,
+    obstacles=a.polygons, ...)`` with every point less ``a.origin_xy``.
+
+    Raises:
+        ScenarioError: the map cannot be read (one line naming the file and key).
+    """
+    try:
+        occ = load_map(path)
+        geometry = cached_obstacles(occ)
+    except MapError as err:
+        fail(f"spatial.{MAP_KEY}", str(err))
+    polygons = tuple(tuple(map(tuple, np.asarray(p).tolist())) for p in geometry.arena_polygons)
+    origin = (float(occ.origin_xy[0]), float(occ.origin_xy[1]))
+    return MapArena(float(occ.width_m), float(occ.height_m), polygons, origin)
+
+
+def _shifted_point(p: Any, origin: tuple[float, float]) -> Any:
+    """``p`` less ``origin`` if it is a point of two finite numbers, else as it is (the specs
+    then refuse it with their own message)."""
+    ok = isinstance(p, list | tuple) and len(p) == 2
+    if not ok or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in p):
+        return p
+    return (p[0] - origin[0], p[1] - origin[1])
+
+
+def _shifted_points(pts: Any, origin: tuple[float, float], depth: int = 1) -> Any:
+    """Every point of a list (``depth`` 1) or of a list of lists (2) less ``origin``."""
+    if not isinstance(pts, list | tuple):
+        return pts
+    if depth == 1:
+        return [_shifted_point(p, origin) for p in pts]
+    return [_shifted_points(q, origin) for q in pts]
 
 
 def _sites(raw: dict, types: list[str]) -> tuple:

@@ -160,7 +160,7 @@ SAMPLES: dict[str, Sample] = {
         ),
         "stalls.png",
     ),
-    # the depot map's GIF, tentative: it comes with the depot scenario (see PENDING)
+    # the depot map's GIF (the README's quick tour, docs/maps.md)
     "depot.gif": Sample(
         Command.of(
             "render depot --allocator expt --cost distance --seed 0 --sets 1 "
@@ -169,10 +169,6 @@ SAMPLES: dict[str, Sample] = {
         )
     ),
 }
-
-# Entries whose file may be missing: depot.gif lands with the depot scenario (another change in
-# flight). Empty this once renders/samples/depot.gif is committed; nothing else belongs here.
-PENDING: frozenset[str] = frozenset({"depot.gif"})
 
 
 def commands(names: Iterable[str]) -> list[tuple[Command, list[str]]]:
@@ -211,7 +207,7 @@ def present(root: Path = ROOT) -> set[str]:
 
 def audit(root: Path = ROOT) -> list[str]:
     """One line per disagreement between :data:`SAMPLES` and ``root/renders/samples/``: a
-    file with no entry, or an entry whose file is missing (but for :data:`PENDING`)."""
+    file with no entry, or an entry whose file is missing."""
     files = present(root)
     lines = [
         f"{SAMPLES_DIR}/{n}: no entry in scenarios.samples" for n in sorted(files - set(SAMPLES))
@@ -219,7 +215,7 @@ def audit(root: Path = ROOT) -> list[str]:
     lines += [
         f"{SAMPLES_DIR}/{n}: missing (python -m scenarios.samples --only {n})"
         for n in SAMPLES
-        if n not in files and n not in PENDING
+        if n not in files
     ]
     return lines
 

@@ -18,19 +18,41 @@ from sim.scenario.schema import fail
 from sim.spatial.navigation.planning import GridPlanner, polygon_signed_distance
 
 
-def check_layout(scenario: Scenario, planner: GridPlanner | None = None) -> None:
+class Frame:
+    """How messages show points and obstacles: in the frame of the file (a ROS map's, shifted
+    by ``origin``) and with the obstacles from ``own`` on named as the map's."""
+
+    def __init__(self, origin: tuple[float, float] = (0.0, 0.0), own: int | None = None):
+        self.origin, self.own = origin, own
+
+    def xy(self, x: float, y: float) -> str:
+        """A point of the world as the file gives it."""
+        return f"({x + self.origin[0]:g}, {y + self.origin[1]:g})"
+
+    def obstacle(self, k: int) -> str:
+        """Obstacle ``k`` by the name the file knows it by."""
+        if self.own is not None and k >= self.own:
+            return "an occupied or unknown cell of spatial.map"
+        return f"spatial.obstacles[{k}]"
+
+
+def check_layout(
+    scenario: Scenario, planner: GridPlanner | None = None, frame: Frame | None = None
+) -> None:
     """Raise ScenarioError for the first start or site that makes the layout unusable.
 
     Args:
         scenario: a scenario with a ``spatial`` table (no check without one).
         planner: the arena's planner, if the caller has one (else one is built).
+        frame: how messages name points and obstacles (default: as the world holds them).
     """
     spec = scenario.spatial
     if spec is None:
         return
-    starts = _starts(scenario, spec)
-    _sites(spec, scenario.task_types)
-    _reachable(scenario, spec, starts, planner or GridPlanner(spec))
+    frame = frame or Frame()
+    starts = _starts(scenario, spec, frame)
+    _sites(spec, scenario.task_types, frame)
+    _reachable(scenario, spec, starts, planner or GridPlanner(spec), frame)
 
 
 def inside_obstacle(spec: SpatialSpec, pts: np.ndarray, margin_m: float) -> np.ndarray:
@@ -42,7 +64,7 @@ def inside_obstacle(spec: SpatialSpec, pts: np.ndarray, margin_m: float) -> np.n
     return hit
 
 
-def _starts(scenario: Scenario, spec: SpatialSpec) -> np.ndarray:
+def _starts(scenario: Scenario, spec: SpatialSpec, frame: Frame) -> np.ndarray:
     robots = scenario.robots
     r = spec.drive.radius_m
     starts = np.array([robot.start_xy for robot in robots], dtype=float)
@@ -50,14 +72,14 @@ def _starts(scenario: Scenario, spec: SpatialSpec) -> np.ndarray:
         if not (r <= x <= spec.width_m - r and r <= y <= spec.height_m - r):
             fail(
                 f"robots[{j}].start",
-                f"({x:g}, {y:g}) puts a robot of radius {r:g} m outside the arena or into a wall",
+                f"{frame.xy(x, y)} puts a robot of radius {r:g} m outside the arena or into a wall",
             )
     hit = inside_obstacle(spec, starts, r)
     for j in np.flatnonzero(hit >= 0).tolist():
         fail(
             f"robots[{j}].start",
-            f"({starts[j, 0]:g}, {starts[j, 1]:g}) overlaps or is inside "
-            f"spatial.obstacles[{hit[j]}] (robot radius {r:g} m)",
+            f"{frame.xy(*starts[j])} overlaps or is inside "
+            f"{frame.obstacle(hit[j])} (robot radius {r:g} m)",
         )
     pairs = cKDTree(starts).query_pairs(2.0 * r, output_type="ndarray")
     if len(pairs):  # touching (centres exactly two radii apart) is allowed
@@ -74,7 +96,7 @@ def _starts(scenario: Scenario, spec: SpatialSpec) -> np.ndarray:
     return starts
 
 
-def _sites(spec: SpatialSpec, types: tuple[str, ...]) -> None:
+def _sites(spec: SpatialSpec, types: tuple[str, ...], frame: Frame) -> None:
     reach = spec.drive.radius_m + spec.clearance_m
     for i, pts in enumerate(spec.sites):
         arr = np.asarray(pts, dtype=float)
@@ -84,20 +106,20 @@ def _sites(spec: SpatialSpec, types: tuple[str, ...]) -> None:
         wall = ((arr < reach) | (arr > far)).any(axis=1)
         for s in range(len(arr)):
             where = f"spatial.sites.{types[i]}[{s}]"
-            xy = f"({arr[s, 0]:g}, {arr[s, 1]:g})"
+            xy = frame.xy(*arr[s])
             if inside[s] >= 0:
-                fail(where, f"{xy} is inside spatial.obstacles[{inside[s]}]")
+                fail(where, f"{xy} is inside {frame.obstacle(inside[s])}")
             if near[s] >= 0:
                 fail(
                     where,
                     f"{xy} is within {reach:g} m (robot radius + clearance) of "
-                    f"spatial.obstacles[{near[s]}]: no robot centre can get there",
+                    f"{frame.obstacle(near[s])}: no robot centre can get there",
                 )
             if wall[s]:
                 fail(where, f"{xy} is within {reach:g} m of the arena wall: unreachable")
 
 
-def _reachable(scenario: Scenario, spec, starts, planner: GridPlanner) -> None:
+def _reachable(scenario: Scenario, spec, starts, planner: GridPlanner, frame: Frame) -> None:
     robots, types = scenario.robots, scenario.task_types
     for i, pts in enumerate(spec.sites):
         capable = [j for j, r in enumerate(robots) if i in r.capabilities]
@@ -109,5 +131,5 @@ def _reachable(scenario: Scenario, spec, starts, planner: GridPlanner) -> None:
             fail(
                 f"spatial.sites.{types[i]}[{s}]",
                 f"unreachable from robots[{j}] ({robots[j].name}) starting at "
-                f"({starts[j, 0]:g}, {starts[j, 1]:g})",
+                f"{frame.xy(*starts[j])}",
             )

@@ -16,7 +16,7 @@ import pytest
 
 from scenarios import samples
 from scenarios.cli.parser import parse_command
-from scenarios.samples import PENDING, SAMPLES, SAMPLES_DIR, Command, Sample
+from scenarios.samples import SAMPLES, SAMPLES_DIR, Command, Sample
 
 ROOT = Path(__file__).resolve().parents[2]
 COMMANDS = list(dict.fromkeys(s.command for s in SAMPLES.values()))
@@ -29,13 +29,8 @@ def test_every_sample_file_has_an_entry():
 
 
 def test_every_entry_has_its_file():
-    missing = sorted(set(SAMPLES) - samples.present(ROOT) - PENDING)
+    missing = sorted(set(SAMPLES) - samples.present(ROOT))
     assert not missing, f"entries of SAMPLES whose file is missing: {missing}"
-
-
-def test_only_the_depot_gif_may_be_pending():
-    assert PENDING <= {"depot.gif"}, "PENDING is for the depot GIF in flight, nothing else"
-    assert PENDING <= set(SAMPLES)
 
 
 def test_the_table_covers_the_samples_the_docs_show():
@@ -133,7 +128,7 @@ def test_only_runs_a_shared_command_once():
 def test_audit_reports_unlisted_and_missing_files(tmp_path):
     folder = tmp_path / SAMPLES_DIR
     for name in SAMPLES:
-        if name not in ("paper/fig2_r5.png", *PENDING):
+        if name != "paper/fig2_r5.png":
             (folder / name).parent.mkdir(parents=True, exist_ok=True)
             (folder / name).write_bytes(b"x")
     (folder / "paper" / "stray.png").write_bytes(b"x")

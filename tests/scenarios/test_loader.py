@@ -52,6 +52,7 @@ def test_unknown_capability_did_you_mean(tmp_path):
 
 def test_bundled_files_are_listed_per_folder():
     assert bundled_names() == [
+        "depot",
         "large",
         "paper",
         "paper_spatial",
@@ -94,7 +95,7 @@ def test_locate_takes_paths_as_given_and_names_from_the_bundle(tmp_path):
 
 def test_unknown_names_list_the_bundle_and_suggest():
     bundled = (
-        "(bundled: large, paper, paper_spatial, scale1000, warehouse, warehouse_pickface,"
+        "(bundled: depot, large, paper, paper_spatial, scale1000, warehouse, warehouse_pickface,"
         " warehouse_wide)"
     )
     with pytest.raises(ScenarioError) as info:

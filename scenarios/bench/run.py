@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import sys
 
-PARTS = ("sim", "gif", "alloc")
+PARTS = ("sim", "gif", "alloc", "maps")
 PAPER_SETS = 8  # task sets of paper_spatial timed by the 10-robot figure (about 3,400 s simulated)
 
 
@@ -144,6 +144,35 @@ def _paper_trajectory():
     return recorder.finish()
 
 
+def bench_maps_part(say) -> dict:
+    """The ``maps`` part: preparing a 30 m x 50 m synthetic warehouse map at 3 cm
+    (``sim.maps.probe``: reading it, and its cells turned into convex polygons) and building
+    the planner over those polygons, in a temporary folder."""
+    import tempfile
+    import time
+
+    from sim.maps.probe import prepare_time_probe
+    from sim.scenario import SpatialSpec
+    from sim.spatial.navigation.planning import GridPlanner
+
+    say("maps: a 30 m x 50 m warehouse map at 3 cm, read, traced into polygons, planned over ...")
+    with tempfile.TemporaryDirectory() as folder:
+        out = prepare_time_probe(folder, geometry=True)
+    geometry = out.pop("geometry")
+    spec = SpatialSpec(
+        width_m=geometry.width_m, height_m=geometry.height_m, obstacles=geometry.arena_polygons
+    )
+    t0 = time.perf_counter()
+    GridPlanner(spec)
+    out["planner_s"] = time.perf_counter() - t0
+    say(
+        f"  {out['cells']:,} cells: read {out['load_s']:.2f} s, polygons {out['geometry_s']:.2f} s "
+        f"({out['polygons']} polygons, {out['vertices']} vertices, {out['specks_dropped']} specks "
+        f"dropped), planner {out['planner_s']:.2f} s"
+    )
+    return out
+
+
 def run_bench(parts=PARTS, progress: bool = True) -> dict:
     """Run the chosen parts; print a readable table when ``progress`` is on."""
     out: dict = {}
@@ -164,6 +193,8 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
             f"  ours {g['seconds']:.2f} s, baseline {g['baseline_seconds']:.2f} s "
             f"({g['baseline_seconds'] / g['seconds']:.1f}x faster)"
         )
+    if "maps" in parts:
+        out["maps"] = bench_maps_part(say)
     if "alloc" in parts:
         from learning import ALLOCATORS
         from scenarios.bench.alloc import bench_alloc, bench_assignment, bench_costs

@@ -431,9 +431,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--json", action="store_true", help="print one JSON object")
     b.add_argument(
         "--only",
-        type=_name_list({"sim", "gif", "alloc"}),
-        default=["sim", "gif", "alloc"],
-        help="comma-separated parts (default sim,gif,alloc)",
+        type=_name_list({"sim", "gif", "alloc", "maps"}),
+        default=["sim", "gif", "alloc", "maps"],
+        help="comma-separated parts (default sim,gif,alloc,maps)",
     )
     h = sub.add_parser(
         "hardcase",

@@ -118,13 +118,16 @@ def prepare_time_probe(
     height_m: float = 50.0,
     resolution_m: float = 0.03,
     seed: int = 0,
-) -> dict[str, float | int]:
+    geometry: bool = False,
+) -> dict:
     """Write a synthetic warehouse map into ``directory`` and time preparing it.
 
     Returns:
         ``cells``, ``load_s`` (:func:`load_map`), ``geometry_s`` (:func:`map_obstacles`, default
-        parameters), ``prepare_s`` (both), ``polygons``, ``vertices`` and ``specks_dropped``.
+        parameters), ``prepare_s`` (both), ``polygons``, ``vertices`` and ``specks_dropped``;
+        with ``geometry``, also ``geometry``: the :class:`MapGeometry` itself.
     """
+    want = geometry
     image = synthetic_warehouse(width_m, height_m, resolution_m, seed=seed)
     path = write_map(directory, "synthetic_warehouse", image, resolution_m)
     t0 = time.perf_counter()
@@ -140,4 +143,4 @@ def prepare_time_probe(
         "polygons": geometry.n_polygons,
         "vertices": geometry.n_vertices,
         "specks_dropped": geometry.specks_dropped,
-    }
+    } | ({"geometry": geometry} if want else {})

@@ -131,3 +131,23 @@ def test_a_folder_named_like_a_bundled_scenario_does_not_shadow_it(tmp_path, mon
     (tmp_path / "paper").mkdir()
     assert load_scenario("paper").name == "paper"
     assert main(["validate", "paper"]) == 0
+
+
+def test_version_names_the_package_version(capsys):
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.strip() == f"mrta (expt-mrta) {version('expt-mrta')}"
+
+
+def test_debug_adds_the_traceback_to_the_one_line(capsys, tmp_path):
+    missing = tmp_path / "missing.toml"
+    assert main(["validate", str(missing)]) == 2
+    quiet = capsys.readouterr().err
+    assert quiet.strip().splitlines() == [f"mrta: error: {missing}: file not found"]
+    assert main(["--debug", "validate", str(missing)]) == 2
+    loud = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in loud and "ScenarioError" in loud
+    assert loud.strip().splitlines()[-1] == f"mrta: error: {missing}: file not found"

@@ -138,7 +138,7 @@ def scenario_tables() -> list[Table]:
             out.append(spec(top, SECTIONS[top]))
         elif top == "spatial":
             path, cls, keys, intro = spec(top, SpatialSpec)
-            out += [(path, cls, (MAP_KEY, *keys), intro)]
+            out += [(path, cls, (MAP_KEY, *(k for k in keys if k != MAP_KEY)), intro)]
             out += [("spatial.sites", None, (SITE_KEY,), INTROS[top])]
             out += [spec(f"spatial.{f.name}", f.default_factory) for f in tables_of(SpatialSpec)]
         else:

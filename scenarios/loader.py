@@ -50,7 +50,7 @@ SECTIONS = {
 TOP_SECTIONS = ("scenario", "robots", *SECTIONS, "spatial")
 SCENARIO_KEYS = ("name", "description", "task_types", "exec_time_s")  # [scenario]
 ROBOT_KEYS = ("name", "capabilities", "cost", "start", "heading_deg")  # each [[robots]]
-MAP_KEY = "map"  # [spatial] map: a ROS map_server map as the arena (file door only)
+MAP_KEY = "map"  # [spatial] map: a ROS map_server map as the arena (the file sets the arena)
 
 
 def bundled_toml(folder: str = "") -> list[str]:
@@ -227,6 +227,7 @@ def _spatial(doc: dict, types: list[str], folder: Path) -> tuple[SpatialSpec, Fr
         if not isinstance(ref, str) or not ref:
             fail(f"spatial.{MAP_KEY}", f"must be a file name, got {kind_of(ref)}")
         arena = map_arena(folder / ref)
+        raw[MAP_KEY] = str((folder / ref).resolve())  # the spec keeps where its map is
     check_table(raw, "spatial", SpatialSpec)
     for key in ("width_m", "height_m"):
         if key not in raw and arena is None:

@@ -13,6 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from sim.atomic import atomic_open
+from sim.maps import FREE, OCCUPIED, cached_obstacles, load_map
+
+# map_saver's grey levels for free, occupied and unknown cells: the picture a ROS user knows
+MAP_GREY = {FREE: 254, OCCUPIED: 0}
+UNKNOWN_GREY = 205
 
 
 @dataclass(frozen=True)
@@ -37,6 +42,12 @@ class Trajectory:
     robot_names: np.ndarray  # (m,) str
     site_xy: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (S, 2) m: every site
     site_type: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (S,)
+    # the ROS map under the arena, if any: grey cells (row 0 at the bottom, the arena's extent),
+    # the map-frame point of the arena's corner (0, 0), and how many of the last obstacles are
+    # the map's own (drawn as its cells, not as polygons)
+    map_grey: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.uint8))
+    map_origin_xy: np.ndarray = field(default_factory=lambda: np.zeros(2))  # (2,) m
+    map_polygons: np.ndarray = field(default_factory=lambda: np.array(0, dtype=np.int64))
 
     def save(self, path: Path) -> None:
         """Write an ``.npz`` atomically (temporary file, then rename)."""
@@ -54,7 +65,14 @@ class TrajectoryRecorder:
     """Collects poses (from the world) and task events (from the experiment loop)."""
 
     def __init__(
-        self, arena_wh, obstacles, type_names, robot_names, every_s: float = 0.1, sites=()
+        self,
+        arena_wh,
+        obstacles,
+        type_names,
+        robot_names,
+        every_s: float = 0.1,
+        sites=(),
+        map_path: str = "",
     ) -> None:
         self.every_s = every_s  # record poses at most this often (simulated seconds)
         self.arena_wh = np.asarray(arena_wh, dtype=float)
@@ -67,6 +85,7 @@ class TrajectoryRecorder:
         pts = [(xy, i) for i, per_type in enumerate(sites) for xy in per_type]
         self.site_xy = np.array([p for p, _ in pts], dtype=float).reshape(-1, 2)
         self.site_type = np.array([i for _, i in pts], dtype=np.int64)
+        self.map_grey, self.map_origin_xy, self.map_polygons = _map_picture(map_path, obstacles)
         self._times: list[float] = []
         self._pos: list[np.ndarray] = []
         self._head: list[np.ndarray] = []
@@ -81,7 +100,13 @@ class TrajectoryRecorder:
         sp = scenario.spatial
         names = [r.name for r in scenario.robots]
         return cls(
-            (sp.width_m, sp.height_m), sp.obstacles, scenario.task_types, names, every_s, sp.sites
+            (sp.width_m, sp.height_m),
+            sp.obstacles,
+            scenario.task_types,
+            names,
+            every_s,
+            sp.sites,
+            map_path=sp.map,
         )
 
     def has_poses(self) -> bool:
@@ -152,4 +177,27 @@ class TrajectoryRecorder:
             robot_names=self.robot_names,
             site_xy=self.site_xy,
             site_type=self.site_type,
+            map_grey=self.map_grey,
+            map_origin_xy=self.map_origin_xy,
+            map_polygons=self.map_polygons,
         )
+
+
+def map_grey(cells: np.ndarray) -> np.ndarray:
+    """(ny, nx) uint8 grey levels of a map's FREE / OCCUPIED / UNKNOWN cells, as map_saver
+    writes them (free 254, occupied 0, unknown 205)."""
+    out = np.full(cells.shape, UNKNOWN_GREY, dtype=np.uint8)
+    for code, grey in MAP_GREY.items():
+        out[cells == code] = grey
+    return out
+
+
+def _map_picture(map_path: str, obstacles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The grey cells and origin of the map at ``map_path`` ("" for none), and how many of the
+    last ``obstacles`` are its polygons (the loader appends them after the file's own)."""
+    if not map_path:
+        return np.zeros((0, 0), dtype=np.uint8), np.zeros(2), np.array(0, dtype=np.int64)
+    occ = load_map(map_path)
+    n_map = min(len(cached_obstacles(occ).arena_polygons), len(obstacles))
+    origin = np.asarray(occ.origin_xy, dtype=float)
+    return map_grey(occ.cells), origin, np.array(n_map, dtype=np.int64)

@@ -5,7 +5,9 @@ command line, the scenario (name, file, SHA-256 and its full TOML text) and the 
 (allocator, cost model, seed, overrides), and the numerics a run's last bits depend on
 (:func:`numerics`). ``mrta run --replay MANIFEST`` re-runs the spec on the scenario text stored
 in the manifest and must give an identical ``metrics.json`` on a machine with the same numerics;
-where they differ it says so on one line (:func:`numerics_note`) and runs anyway.
+where they differ it says so on one line (:func:`numerics_note`) and runs anyway. A scenario on a
+ROS map (``[spatial] map``) records the map by its resolved path and content digest, not its
+polygons: the replay reads that file again and refuses one whose content has changed.
 """
 
 from __future__ import annotations
@@ -14,13 +16,16 @@ import hashlib
 import json
 import os
 import platform
+import re
 import sys
+import tomllib
 from dataclasses import asdict, fields
 from importlib import metadata
 from pathlib import Path
 
 from scenarios.experiments.output import write_json_atomic
 from scenarios.experiments.protocol import RunSpec, UserError
+from sim.maps import MapError, load_map
 from sim.scenario import Scenario
 
 MANIFEST_FORMAT = "expt-mrta-manifest/1"
@@ -95,6 +100,7 @@ def build_manifest(scenario: Scenario, specs: list[RunSpec], argv: list[str] | N
             "source": scenario.source,
             "sha256": scenario.source_sha256,
             "toml": text,
+            **_map_record(scenario),
         },
         "runs": [asdict(s) for s in specs],
     }
@@ -125,6 +131,7 @@ def read_manifest(path: Path, scratch: Path) -> tuple[dict, list[RunSpec]]:
         )
     scratch.mkdir(parents=True, exist_ok=True)
     stored = scratch / f"{scen.get('name', 'scenario')}.replay.toml"
+    text = _pointed_at_map(text, scen.get("map"), path)
     if not stored.is_file() or stored.read_text() != text:
         stored.write_text(text)
     names = {f.name for f in fields(RunSpec)}
@@ -142,6 +149,39 @@ def read_manifest(path: Path, scratch: Path) -> tuple[dict, list[RunSpec]]:
     if not specs:
         raise UserError(f"{path}: runs: no run recorded")
     return doc, specs
+
+
+def _map_record(scenario: Scenario) -> dict:
+    """``{"map": {"path", "sha256"}}`` for a scenario on a ROS map, else ``{}``."""
+    sp = scenario.spatial
+    if sp is None or not sp.map:
+        return {}
+    return {"map": {"path": sp.map, "sha256": load_map(sp.map).sha256}}
+
+
+MAP_LINE = re.compile(r"^(\s*map\s*=\s*).*$", re.MULTILINE)
+
+
+def _pointed_at_map(text: str, record: object, manifest: Path) -> str:
+    """The stored scenario text with its ``[spatial] map`` (relative to a folder the replay
+    does not run in) replaced by the recorded path, once that file is checked to hold the
+    recorded map."""
+    if not isinstance(record, dict):
+        return text
+    where = f"{manifest}: scenario.map"
+    map_path, digest = record.get("path"), record.get("sha256")
+    if not isinstance(map_path, str) or not isinstance(digest, str):
+        raise UserError(f"{where}: needs a path and a sha256")
+    try:
+        now = load_map(map_path).sha256
+    except MapError as err:
+        raise UserError(f"{where}: {err}") from None
+    if now != digest:
+        raise UserError(f"{where}: {map_path} has changed since the run (sha256 {now[:12]}...)")
+    out, count = MAP_LINE.subn(lambda m: m.group(1) + json.dumps(map_path), text, count=1)
+    if count != 1 or tomllib.loads(out).get("spatial", {}).get("map") != map_path:
+        raise UserError(f"{where}: cannot point the stored scenario at {map_path}")
+    return out
 
 
 __all__ = ["build_manifest", "numerics", "numerics_note", "read_manifest", "write_manifest"]

@@ -141,7 +141,7 @@ class FrameScene:
 
     def _build_static(self) -> None:
         from matplotlib.patches import Polygon, Rectangle
-        from matplotlib.ticker import MaxNLocator
+        from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator
 
         ax, s, traj = self.ax, self.scale, self.traj
         arena_w, arena_h = (float(v) for v in traj.arena_wh)
@@ -151,13 +151,27 @@ class FrameScene:
         ax.set_facecolor(OUTSIDE_FACE)
         for spine in ax.spines.values():
             spine.set_visible(False)
-        for axis in (ax.xaxis, ax.yaxis):
-            axis.set_major_locator(MaxNLocator(5, integer=True))
+        for axis, lo, hi, shift in (
+            (ax.xaxis, *ax.get_xlim(), float(traj.map_origin_xy[0])),
+            (ax.yaxis, *ax.get_ylim(), float(traj.map_origin_xy[1])),
+        ):
+            if shift == 0.0:
+                axis.set_major_locator(MaxNLocator(5, integer=True))
+            else:  # a map's arena: ticks and labels in the map's frame, as RViz shows it
+                ticks = MaxNLocator(5, integer=True).tick_values(lo + shift, hi + shift)
+                axis.set_major_locator(FixedLocator(ticks - shift))
+                axis.set_major_formatter(FuncFormatter(lambda v, _, d=shift: f"{v + d:g}"))
         ax.tick_params(labelsize=7 * s, length=3 * s, pad=1.5 * s, colors="#444444")
         wall = {"facecolor": "white", "edgecolor": "#333333", "linewidth": self._pt(2.0)}
         ax.add_patch(Rectangle((0, 0), arena_w, arena_h, zorder=0.5, **wall))
+        grey = np.asarray(traj.map_grey)
+        if grey.size:  # the map's cells, one grey image, instead of its many polygons
+            extent = (0.0, arena_w, 0.0, arena_h)
+            ax.imshow(grey, cmap="gray", vmin=0, vmax=255, extent=extent, origin="lower",
+                      interpolation="nearest", aspect="auto", zorder=0.6)  # fmt: skip
         block = {"facecolor": OBSTACLE_FACE, "edgecolor": OBSTACLE_EDGE}
-        for poly in traj.obstacles:
+        own = len(traj.obstacles) - int(traj.map_polygons)
+        for poly in traj.obstacles[:own]:
             pts = poly[np.all(np.isfinite(poly), axis=1)]
             if len(pts) >= 3:
                 ax.add_patch(Polygon(pts, closed=True, linewidth=self._pt(1.2), zorder=1, **block))
@@ -167,6 +181,8 @@ class FrameScene:
             ax.scatter(*sites.T, s=self._pt(SITE_PX) ** 2, marker="o", facecolors="white",
                        edgecolors=edge, linewidths=1.4 * s, zorder=1.5)  # fmt: skip
         note = f"arena {arena_w:g} \u00d7 {arena_h:g} m\nobstacles shaded"
+        if grey.size:
+            note = f"map {arena_w:g} \u00d7 {arena_h:g} m\nwalls dark, unknown grey"
         note += "\nsites: hollow when idle" if len(sites) else ""
         add_legend(
             self.fig,

@@ -463,6 +463,9 @@ class SpatialSpec:
     traffic: TrafficSpec = table(TrafficSpec, "traffic rules for single-lane passages")
     stalls: StallSpec = table(StallSpec, "the stall meter")
     contacts: ContactSpec = table(ContactSpec, "the contact solver")
+    # The ROS map the arena and obstacles came from ("" for none), as a resolved path: the
+    # loader fills the arena from it (``scenarios.loader.map_arena``); drawings show its cells.
+    map: str = ""
 
     def __post_init__(self) -> None:
         check_settings(self, self.SECTION)
@@ -476,6 +479,8 @@ class SpatialSpec:
                 "spatial.control_hz",
                 f"control ({self.control_hz:g} Hz) cannot run faster than physics (1/dt_s)",
             )
+        if not isinstance(self.map, str):
+            fail("spatial.map", f"must be a file name, got {kind_of(self.map)}")
         if self.width_m * self.height_m > MAX_GRID_CELLS * self.grid_res_m**2:
             fail("spatial.grid_res_m", f"the grid would have more than {MAX_GRID_CELLS:,} cells")
         object.__setattr__(self, "obstacles", self._obstacles(self.obstacles))

@@ -81,6 +81,14 @@ def _starts(scenario: Scenario, spec: SpatialSpec, frame: Frame) -> np.ndarray:
             f"{frame.xy(*starts[j])} overlaps or is inside "
             f"{frame.obstacle(hit[j])} (robot radius {r:g} m)",
         )
+    reach = r + spec.clearance_m
+    near = inside_obstacle(spec, starts, reach)
+    for j in np.flatnonzero(near >= 0).tolist():
+        fail(
+            f"robots[{j}].start",
+            f"{frame.xy(*starts[j])} is within {reach:g} m (robot radius + clearance) of "
+            f"{frame.obstacle(near[j])}: the planner keeps robot centres farther away",
+        )
     pairs = cKDTree(starts).query_pairs(2.0 * r, output_type="ndarray")
     if len(pairs):  # touching (centres exactly two radii apart) is allowed
         gaps = np.linalg.norm(starts[pairs[:, 0]] - starts[pairs[:, 1]], axis=1)

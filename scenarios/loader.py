@@ -12,14 +12,11 @@ from __future__ import annotations
 
 import hashlib
 import tomllib
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from sim.maps import MapError, cached_obstacles, load_map
 from sim.scenario import (
     MAX_ROBOTS,
     MAX_TYPES,
@@ -31,6 +28,7 @@ from sim.scenario import (
     SpatialSpec,
     StreamSpec,
 )
+from sim.scenario.maps import MAP_KEY, map_arena, shifted_point, shifted_points
 from sim.scenario.schema import (
     ScenarioError,
     check_table,
@@ -50,7 +48,6 @@ SECTIONS = {
 TOP_SECTIONS = ("scenario", "robots", *SECTIONS, "spatial")
 SCENARIO_KEYS = ("name", "description", "task_types", "exec_time_s")  # [scenario]
 ROBOT_KEYS = ("name", "capabilities", "cost", "start", "heading_deg")  # each [[robots]]
-MAP_KEY = "map"  # [spatial] map: a ROS map_server map as the arena (the file sets the arena)
 
 
 def bundled_toml(folder: str = "") -> list[str]:
@@ -154,7 +151,7 @@ def _build(doc: dict[str, Any], source: str, sha256: str) -> tuple[Scenario, Fra
     if "spatial" in doc:
         spatial, frame = _spatial(doc, types, Path(source).parent)
     if frame.own is not None:  # starts in the map's frame, the world's is its lower-left corner
-        robots = [replace(r, start_xy=_shifted_point(r.start_xy, frame.origin)) for r in robots]
+        robots = [replace(r, start_xy=shifted_point(r.start_xy, frame.origin)) for r in robots]
     scenario = Scenario(
         name=name,
         task_types=tuple(types),
@@ -240,59 +237,11 @@ def _spatial(doc: dict, types: list[str], folder: Path) -> tuple[SpatialSpec, Fr
         return SpatialSpec(**values), Frame()
     origin = arena.origin_xy
     values["width_m"], values["height_m"] = arena.width_m, arena.height_m
-    values["sites"] = tuple(_shifted_points(pts, origin) for pts in values["sites"])
-    own = _shifted_points(values.get("obstacles", ()), origin, depth=2)
+    values["sites"] = tuple(shifted_points(pts, origin) for pts in values["sites"])
+    own = shifted_points(values.get("obstacles", ()), origin, depth=2)
     values["obstacles"] = (*own, *arena.polygons) if isinstance(own, list | tuple) else own
     n_own = len(own) if isinstance(own, list | tuple) else 0
     return SpatialSpec(**values), Frame(origin, n_own)
-
-
-@dataclass(frozen=True, slots=True)
-class MapArena:
-    """A ROS map as an arena: its size, its convex obstacles in the arena's frame (the map's
-    lower-left corner at (0, 0)) and the map-frame position of that corner."""
-
-    width_m: float
-    height_m: float
-    polygons: tuple
-    origin_xy: tuple[float, float]
-
-
-def map_arena(path: str | Path) -> MapArena:
-    """Read a ROS map_server map (``.yaml`` and its image) and turn its occupied and unknown
-    cells into convex obstacles (cached per map content: ``sim.maps.cached_obstacles``).
-    For a scenario built in Python: ``SpatialSpec(width_m=a.width_m, height_m=a.height_m,
-    obstacles=a.polygons, ...)`` with every point less ``a.origin_xy``.
-
-    Raises:
-        ScenarioError: the map cannot be read (one line naming the file and key).
-    """
-    try:
-        occ = load_map(path)
-        geometry = cached_obstacles(occ)
-    except MapError as err:
-        fail(f"spatial.{MAP_KEY}", str(err))
-    polygons = tuple(tuple(map(tuple, np.asarray(p).tolist())) for p in geometry.arena_polygons)
-    origin = (float(occ.origin_xy[0]), float(occ.origin_xy[1]))
-    return MapArena(float(occ.width_m), float(occ.height_m), polygons, origin)
-
-
-def _shifted_point(p: Any, origin: tuple[float, float]) -> Any:
-    """``p`` less ``origin`` if it is a point of two finite numbers, else as it is (the specs
-    then refuse it with their own message)."""
-    ok = isinstance(p, list | tuple) and len(p) == 2
-    if not ok or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in p):
-        return p
-    return (p[0] - origin[0], p[1] - origin[1])
-
-
-def _shifted_points(pts: Any, origin: tuple[float, float], depth: int = 1) -> Any:
-    """Every point of a list (``depth`` 1) or of a list of lists (2) less ``origin``."""
-    if not isinstance(pts, list | tuple):
-        return pts
-    if depth == 1:
-        return [_shifted_point(p, origin) for p in pts]
-    return [_shifted_points(q, origin) for q in pts]
 
 
 def _sites(raw: dict, types: list[str]) -> tuple:

@@ -9,7 +9,8 @@ allocators) reads it and never changes it.
 - ``core``: :class:`Scenario` and the tables of the abstract world (robots, stream, learning,
   experience, faults);
 - ``spatial``: the ``[spatial]`` table and its sub-tables (robot body, laws, avoidance, sites'
-  queues, recovery, jams, stall meter, contact solver).
+  queues, recovery, jams, stall meter, contact solver);
+- ``maps``: a ROS map as the arena (``map_arena``), for the file door and ``SpatialSpec.on_map``.
 """
 
 from sim.scenario.core import (

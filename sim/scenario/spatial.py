@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 
+from sim.scenario.maps import check_map_arena, map_arena, shifted_points
 from sim.scenario.schema import check_settings, fail, kind_of, required, setting, table
 
 AVOIDANCE = ("orca", "none")
@@ -484,6 +486,31 @@ class SpatialSpec:
         if self.width_m * self.height_m > MAX_GRID_CELLS * self.grid_res_m**2:
             fail("spatial.grid_res_m", f"the grid would have more than {MAX_GRID_CELLS:,} cells")
         object.__setattr__(self, "obstacles", self._obstacles(self.obstacles))
+        if self.map:
+            check_map_arena(self)
+
+    @classmethod
+    def on_map(
+        cls, path: str | Path, *, sites: Any = (), obstacles: Any = (), **settings: Any
+    ) -> SpatialSpec:
+        """The ``[spatial]`` table of a scenario on a ROS map, as a file with ``map = path``
+        gives it: the arena and obstacles of the map (:func:`sim.scenario.maps.map_arena`),
+        ``sites`` (per task type) and extra convex ``obstacles`` in the map's frame, any other
+        setting as a keyword. Robot starts move to the world's frame with
+        ``map_arena(path).to_world((x, y))``."""
+        for key in ("width_m", "height_m", "map"):
+            if key in settings:
+                fail(f"spatial.{key}", "not allowed beside spatial.map: the map sets the arena")
+        arena = map_arena(path)
+        own = shifted_points(obstacles, arena.origin_xy, depth=2)
+        return cls(
+            width_m=arena.width_m,
+            height_m=arena.height_m,
+            obstacles=(*own, *arena.polygons) if isinstance(own, list) else own,
+            sites=tuple(tuple(shifted_points(pts, arena.origin_xy)) for pts in sites),
+            map=arena.path,
+            **settings,
+        )
 
     @property
     def avoid(self) -> bool:

@@ -244,3 +244,16 @@ def test_no_commit_hash_outside_results(page):
             if has_digit and has_letter and is_commit(word):
                 found.append(f"{rel(page)}:{number}: {word}")
     assert not found, "commit hashes belong on docs/results/ pages only:\n" + "\n".join(found)
+
+
+def test_the_python_example_of_the_maps_page_runs():
+    """docs/maps.md's "From Python" block builds a scenario whose spatial table is a file's."""
+    text = (ROOT / "docs" / "maps.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) == 1
+    names: dict = {}
+    exec(compile(blocks[0], "docs/maps.md", "exec"), names)  # noqa: S102 (our own page)
+    sc = names["scenario"]
+    assert sc.spatial.map.endswith("tb3_sandbox.yaml")
+    assert sc.robots[0].start_xy == pytest.approx((10.68, 9.52))  # origin (-10, -10)
+    assert sc.spatial.sites[0][0] == pytest.approx((9.43, 11.87))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from scenarios.experiments.protocol import RunSpec, execute
 from scenarios.loader import load_scenario, map_arena
 from sim.maps import load_map
-from sim.scenario import ScenarioError
+from sim.scenario import ScenarioError, SpatialSpec
 
 HERE = Path(__file__).parent
 TB3 = HERE / "maps" / "tb3_sandbox.toml"
@@ -55,6 +56,34 @@ def test_the_depot_scenario_keeps_its_own_points_where_the_map_puts_them():
     assert (occ.width_m, occ.height_m) == pytest.approx((30.2, 15.35))  # 604 x 307 cells
     assert sc.robots[0].start_xy == (23.67, 1.78)  # origin (0, 0): nothing moves
     assert len(sc.spatial.obstacles) == len(map_arena(MAPS / "depot.yaml").polygons)
+
+
+def test_a_scenario_built_in_python_on_a_map_is_the_file_s():
+    """``SpatialSpec.on_map`` takes points in the map's frame, as the file does, and gives the
+    same spec; starts move with ``to_world``; a spec naming a map keeps that map's arena."""
+    sc = load_scenario(TB3)
+    yaml = MAPS / "tb3_sandbox.yaml"
+    sites = [[(-0.57, 1.87), (-1.18, 1.63)], [(-1.58, -0.72), (-1.78, 0.08)]]
+    sites += [[(-0.42, -1.17), (0.47, 0.19)]]
+    built = SpatialSpec.on_map(
+        yaml,
+        sites=sites,
+        control_hz=10.0,
+        arrive_tol_m=0.15,
+        clearance_m=0.05,
+        drive=sc.spatial.drive,
+    )
+    assert built == sc.spatial
+    arena = map_arena(yaml)
+    starts = [(0.68, -0.48), (1.63, -0.33), (-1.03, 0.49), (1.08, -1.67)]
+    assert [arena.to_world(p) for p in starts] == [r.start_xy for r in sc.robots]
+    box = [[(0.5, -0.6), (0.9, -0.6), (0.9, -0.3), (0.5, -0.3)]]
+    own = SpatialSpec.on_map(yaml, sites=sites, obstacles=box)
+    assert (
+        own.obstacles[0][0] == pytest.approx((10.5, 9.4))
+        and own.obstacles[1:] == sc.spatial.obstacles
+    )
+    assert dataclasses.replace(sc.spatial, clearance_m=0.2).obstacles == sc.spatial.obstacles
 
 
 @pytest.mark.parametrize(

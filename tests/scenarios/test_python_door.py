@@ -34,6 +34,7 @@ from sim.scenario import (
     schema,
     spatial,
 )
+from sim.scenario import maps as scenario_maps
 from sim.scenario.overrides import apply_overrides
 from sim.spatial import layout
 
@@ -60,6 +61,9 @@ def spatial_tiny(**changes) -> Scenario:
     obstacles = (((4.5, 4.5), (5.5, 4.5), (5.5, 5.5), (4.5, 5.5)),)
     spatial = arena(**{"obstacles": obstacles, "sites": sites, **changes.pop("spatial", {})})
     return tiny(robots=robots, spatial=spatial, **changes)
+
+
+TB3 = Path(__file__).parents[2] / "scenarios" / "data" / "maps" / "tb3_sandbox.yaml"
 
 
 def sweep_grid(tmp_path, grid: str) -> None:
@@ -125,6 +129,23 @@ CASES: list[tuple[str, Callable[..., object], str]] = [
         "layout_in_the_world",
         lambda: make_world(spatial_tiny(spatial={"sites": (((5.0, 5.0),), ((8.0, 4.0),))})),
         "spatial.sites.A[0]: (5, 5) is inside spatial.obstacles[0]",
+    ),
+    (
+        "map_other_arena",
+        lambda: SpatialSpec(width_m=19.2, height_m=19.2, map=str(TB3)),
+        "spatial.map: tb3_sandbox.yaml is 19.200000000000003 x 19.200000000000003 m but the "
+        "arena is 19.2 x 19.2 m: build it with SpatialSpec.on_map(path, ...)",
+    ),
+    (
+        "map_without_its_cells",
+        lambda: dataclasses.replace(SpatialSpec.on_map(TB3), obstacles=()),
+        "spatial.map: the obstacles do not end with the 57 of tb3_sandbox.yaml: build it with "
+        "SpatialSpec.on_map(path, ...)",
+    ),
+    (
+        "map_with_width",
+        lambda: SpatialSpec.on_map(TB3, width_m=10.0),
+        "spatial.width_m: not allowed beside spatial.map: the map sets the arena",
     ),
     # -- overrides: a run, an environment, a sweep's grid ------------------------------------
     (
@@ -232,7 +253,7 @@ def loader_checks() -> list[tuple[str, str]]:
     (``sim/spatial/layout.py``).
     """
     out = []
-    for module in (loader, schema, core, spatial, layout):
+    for module in (loader, schema, core, spatial, scenario_maps, layout):
         path = Path(module.__file__)
         for func in ast.walk(ast.parse(path.read_text())):
             if not isinstance(func, ast.FunctionDef):

@@ -170,6 +170,53 @@ def bench_maps_part(say) -> dict:
         f"({out['polygons']} polygons, {out['vertices']} vertices, {out['specks_dropped']} specks "
         f"dropped), planner {out['planner_s']:.2f} s"
     )
+    say("maps: distance bids of the depot's 10 robots for 7 tasks, compiled vs numpy test ...")
+    out["depot_bids"] = bench_map_bids()
+    b = out["depot_bids"]
+    say(
+        f"  planner {b['planner_s']:.2f} s; a 10 x 7 bid at the depot's sites "
+        f"{b['known_ms']:.1f} ms (numpy {b['known_ref_ms']:.1f} ms), at 7 new points "
+        f"{b['new_ms']:.1f} ms (numpy {b['new_ref_ms']:.1f} ms)"
+    )
+    return out
+
+
+def bench_map_bids(rounds: int = 20, seed: int = 0) -> dict:
+    """Wall time of the distance bids on the bundled ``depot`` map: 10 robots at their starts
+    for 7 tasks, at the scenario's sites (their geodesic fields kept from round to round, as in
+    a run) and at 7 new free points each round (a field built per point); the median over
+    ``rounds``, with the planner's compiled visibility test and with its numpy reference."""
+    import copy
+    import time
+
+    import numpy as np
+
+    from scenarios.loader import load_scenario
+    from sim.spatial.navigation.planning import GridPlanner
+
+    sc = load_scenario("depot")
+    t0 = time.perf_counter()
+    planner = GridPlanner(sc.spatial)
+    out = {"planner_s": time.perf_counter() - t0}
+    rng = np.random.default_rng(seed)
+    pos = np.array([r.start_xy for r in sc.robots], dtype=float)
+    sites = np.array([p for pts in sc.spatial.sites for p in pts], dtype=float)
+    known = [sites[rng.choice(len(sites), 7, replace=False)] for _ in range(rounds)]
+    size = np.array([sc.spatial.width_m, sc.spatial.height_m])
+    points = rng.uniform(0.0, size, (50 * rounds * 7, 2))
+    points = points[planner.free(points)][: rounds * 7].reshape(rounds, 7, 2)
+    for name in ("", "_ref"):
+        for kind, batches in (("known", known), ("new", points)):
+            fresh = copy.copy(planner)  # the same arena with no goal fields yet
+            fresh._fields = {}
+            if name:
+                fresh.blocked = fresh.blocked_reference
+            times = []
+            for batch in batches:
+                t0 = time.perf_counter()
+                fresh.distances(pos, batch)
+                times.append(time.perf_counter() - t0)
+            out[f"{kind}{name}_ms"] = 1e3 * float(np.median(times))
     return out
 
 

@@ -252,7 +252,7 @@ def test_the_python_example_of_the_maps_page_runs():
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
     assert len(blocks) == 1
     names: dict = {}
-    exec(compile(blocks[0], "docs/maps.md", "exec"), names)  # noqa: S102 (our own page)
+    exec(compile(blocks[0], "docs/maps.md", "exec"), names)
     sc = names["scenario"]
     assert sc.spatial.map.endswith("tb3_sandbox.yaml")
     assert sc.robots[0].start_xy == pytest.approx((10.68, 9.52))  # origin (-10, -10)

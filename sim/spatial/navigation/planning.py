@@ -27,6 +27,7 @@ from scipy.sparse.csgraph import shortest_path
 from sim.scenario import SpatialSpec
 from sim.spatial.navigation.buckets import BoxBuckets, typical_size
 from sim.spatial.navigation.distfield import SHARED, DistanceField
+from sim.spatial.navigation.segments import blocked_segments
 
 _TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
 _SNAP_M = 1e-6  # how far past a boundary a point pushed out of an obstacle lands
@@ -140,8 +141,10 @@ class GridPlanner:
         for k, (p, n, c, *_) in enumerate(shapes):
             self.normals_[k, : len(p)], self.offsets_[k, : len(p)] = n, c
             self.real_[k, : len(p)] = True
-        self.bb_lo_ = np.array([shape[3] for shape in shapes]).reshape(-1, 2)
-        self.bb_hi_ = np.array([shape[4] for shape in shapes]).reshape(-1, 2)
+        self.bb_lo_ = np.array([shape[3] for shape in shapes], dtype=float).reshape(-1, 2)
+        self.bb_hi_ = np.array([shape[4] for shape in shapes], dtype=float).reshape(-1, 2)
+        self.n_edges_ = self.real_.sum(axis=1).astype(np.int64)
+        self.all_polys_ = np.arange(len(polys), dtype=np.int64)
         # the same as Python floats, for single queries (blocked_one, free_one)
         self.scalar_ = [(*lo, *hi, edges) for *_, lo, hi, edges in shapes]
         boxes = [
@@ -242,7 +245,37 @@ class GridPlanner:
         (of the obstacles ``polys``, indices, if given).
 
         Cyrus-Beck clipping of each segment against each inflated polygon whose bounding box it
-        meets; touching a boundary or running along an edge is not blocked.
+        meets; touching a boundary or running along an edge is not blocked. Compiled
+        (``sim.spatial.navigation.segments``); :meth:`blocked_reference` is the same test in
+        numpy, with the same answers.
+        """
+        a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
+        b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
+        if not len(self.polygons_) or not len(a):
+            return np.zeros(len(a), dtype=bool)
+        if polys is None:
+            polys = self.all_polys_
+        polys = np.ascontiguousarray(polys, dtype=np.int64)
+        return blocked_segments(
+            a,
+            b,
+            polys,
+            self.bb_lo_,
+            self.bb_hi_,
+            self.normals_,
+            self.offsets_,
+            self.n_edges_,
+            _TOL_M,
+        )
+
+    def blocked_reference(
+        self, a: np.ndarray, b: np.ndarray, polys: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(S,) True where segment a[s] -> b[s] passes through the interior of an obstacle
+        (of the obstacles ``polys``, indices, if given).
+
+        :meth:`blocked` in numpy (the reference its compiled test is checked against), in
+        chunks of ``chunk`` (pair, edge) entries.
         """
         a = np.asarray(a, dtype=float).reshape(-1, 2)
         b = np.asarray(b, dtype=float).reshape(-1, 2)

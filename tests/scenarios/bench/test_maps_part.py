@@ -15,4 +15,7 @@ def test_the_maps_part_prepares_the_large_map_and_plans_over_it():
     assert out["specks_dropped"] > 0  # the synthetic map's noise
     assert out["prepare_s"] == pytest.approx(out["load_s"] + out["geometry_s"])
     assert out["planner_s"] > 0 and "geometry" not in out
-    assert len(lines) == 2 and f"{out['polygons']} polygons" in lines[1]
+    assert len(lines) == 4 and f"{out['polygons']} polygons" in lines[1]
+    bids = out["depot_bids"]
+    assert set(bids) == {"planner_s", "known_ms", "new_ms", "known_ref_ms", "new_ref_ms"}
+    assert f"{bids['known_ms']:.1f} ms (numpy {bids['known_ref_ms']:.1f} ms)" in lines[3]

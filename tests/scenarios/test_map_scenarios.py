@@ -121,9 +121,13 @@ def test_bad_map_layouts_are_one_line_naming_the_key(tmp_path, old, new, message
     assert "\n" not in str(err.value) and str(err.value).startswith(str(tmp_path))
 
 
-@pytest.mark.parametrize("allocator", ["market", "ql", "expt"])
-def test_robots_drive_to_their_tasks_on_the_tb3_map(allocator):
-    out = execute(RunSpec(str(TB3), allocator, "distance", 0))
+@pytest.mark.parametrize(
+    ("allocator", "cost"),
+    [("market", "distance"), ("ql", "distance"), ("expt", "distance"), ("expt", "time")],
+)
+def test_robots_drive_to_their_tasks_on_the_tb3_map(allocator, cost):
+    out = execute(RunSpec(str(TB3), allocator, cost, 0))
+    assert out["spec"]["cost"] == cost
     sp = out["spatial"]
     assert out["tasks"]["allocated"] >= 15 and sp["failed_tasks"] == 0
     assert 0.3 < sp["distance_per_task_m"] < 4.0  # the arena is about 4 m across

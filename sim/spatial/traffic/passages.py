@@ -17,6 +17,8 @@ aisle (``passable`` False): robots wait before it rather than beside it.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +29,7 @@ from sim.spatial.traffic.geometry import (
     clip_line,
     disc_polygon,
     polygon_gap,
+    to_segments,
     walls,
 )
 
@@ -93,7 +96,9 @@ def find_passages(
 ) -> tuple[Passage, ...]:
     """The passages of an arena: every pair of obstacles (an arena wall counts as one) whose
     gap is narrower than ``passage_m`` and wider than ``min_gap_m`` (narrower, no robot centre
-    fits: the planner finds no path through it).
+    fits: the planner finds no path through it), unless a third obstacle fills the gap where
+    it is narrowest (:func:`_filled`). Kept per arena for the process (a world is built anew
+    at each reset).
 
     Args:
         obstacles: convex polygons, (P, 2) points or (P,) complex, counter-clockwise.
@@ -101,7 +106,13 @@ def find_passages(
         passage_m: two lanes (:func:`two_lanes_m`).
         min_gap_m: two radii plus two clearances.
     """
-    polys = [as_complex(p) for p in obstacles]
+    key = tuple(tuple(map(complex, as_complex(p))) for p in obstacles)
+    return _passages(key, float(width_m), float(height_m), float(passage_m), float(min_gap_m))
+
+
+@functools.lru_cache(maxsize=16)
+def _passages(obstacles: tuple, width_m, height_m, passage_m, min_gap_m) -> tuple[Passage, ...]:
+    polys = [np.array(p, dtype=complex) for p in obstacles]
     n_obs = len(polys)
     polys += walls(width_m, height_m)
     lo = np.array([[p.real.min(), p.imag.min()] for p in polys]).reshape(-1, 2)
@@ -113,17 +124,47 @@ def find_passages(
         for k in (np.flatnonzero(near) + i + 1).tolist():
             if i >= n_obs and k >= n_obs:
                 continue  # two walls
-            found = pair_passage(polys[i], polys[k], passage_m, min_gap_m)
+
+            def filled(z: complex, pair=(i, k)) -> bool:
+                return _filled(z, polys, lo, hi, pair, min_gap_m)
+
+            found = pair_passage(polys[i], polys[k], passage_m, min_gap_m, filled=filled)
             if found is not None:
                 out.append(found)
     return tuple(out)
 
 
+def _filled(z: complex, polys: list, lo: np.ndarray, hi: np.ndarray, pair, min_gap_m: float):
+    """True if an obstacle other than the ``pair`` lies in their gap: nearer to the point
+    ``z`` midway across it than a robot centre may come (half of ``min_gap_m``). The gap
+    between two pieces of one wall (a map's wall is many convex pieces) is filled by the
+    pieces between them: no robot crosses it, so it is no passage."""
+    reach = 0.5 * min_gap_m - TOL_M
+    xy = np.array([z.real, z.imag])
+    near = np.flatnonzero(((lo - reach) < xy).all(axis=1) & ((hi + reach) > xy).all(axis=1))
+    for j in near.tolist():
+        if j in pair:
+            continue
+        poly = polys[j]
+        nxt = np.roll(poly, -1)
+        if (((z - poly) * (nxt - poly).conj()).imag > 0.0).all():  # left of every CCW edge
+            return True
+        if to_segments(z, poly, nxt)[0].min() < reach:
+            return True
+    return False
+
+
 def pair_passage(
-    pa: np.ndarray, pb: np.ndarray, passage_m: float, min_gap_m: float, worker: int = -1
+    pa: np.ndarray,
+    pb: np.ndarray,
+    passage_m: float,
+    min_gap_m: float,
+    worker: int = -1,
+    filled: Callable[[complex], bool] | None = None,
 ) -> Passage | None:
     """The passage between two convex polygons, or None if their gap is not narrower than
-    ``passage_m`` or not wider than ``min_gap_m``. The lane runs across the line of their
+    ``passage_m`` or not wider than ``min_gap_m``, or if ``filled`` says that something else
+    fills it at the point midway across its narrowest place. The lane runs across the line of their
     nearest points; it extends along the lane as far as a line across it meets both polygons
     with a gap narrower than ``passage_m`` between them (scanned every ``SCAN_M``, ends
     bisected)."""
@@ -134,6 +175,8 @@ def pair_passage(
     across = (q - p) / gap
     axis = 1j * across
     mid = 0.5 * (p + q)
+    if filled is not None and filled(mid):
+        return None
 
     def width(s: float) -> float:
         """Gap between the polygons on the line across at ``s`` along; inf where it misses."""

@@ -82,6 +82,21 @@ def test_only_gaps_a_robot_fits_and_two_cannot_pass_in_are_passages(gap_m, found
     assert len(find_passages(shelves, 30, 20, TWO_LANES, MIN_GAP)) == found
 
 
+def test_a_gap_filled_by_a_third_obstacle_is_no_passage():
+    """A wall in three convex pieces (as a map's walls are): the end pieces face each other
+    1 m apart across the middle one, which fills that gap; a pillar that leaves less than a
+    robot each side fills it too; a block beside the gap, not in it, leaves it a passage."""
+    ends = [box(3, 7, 9.5, 8), box(10.5, 7, 17, 8)]
+    assert find_passages([*ends, box(9.5, 7, 10.5, 8)], 30, 20, TWO_LANES, MIN_GAP) == ()
+    assert len(find_passages(ends, 30, 20, TWO_LANES, MIN_GAP)) == 1
+    nearly = [*ends, box(9.9, 7.3, 10.1, 7.7)]  # a pillar in the gap leaves 0.4 m each side
+    assert find_passages(nearly, 30, 20, TWO_LANES, MIN_GAP) == ()
+    below = [*ends, box(8.0, 5.0, 12.0, 6.0)]  # 1 m below the pieces, not in their gap
+    found = find_passages(below, 30, 20, TWO_LANES, MIN_GAP)
+    assert len(found) == 3  # the gap between the ends, and one under each end
+    assert sorted(round(p.centre.imag, 6) for p in found) == [6.5, 6.5, 7.5]
+
+
 def test_an_obstacle_near_the_arena_wall_makes_a_corridor_along_it():
     """A 4 m long block 1 m from the bottom wall: a passage 4 m long between them."""
     found = find_passages([box(3, 1, 7, 2)], 12, 8, TWO_LANES, MIN_GAP)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sim.spatial.control.arrival import arrive
 from sim.spatial.control.avoidance import steer_clear, wall_clear
 from sim.spatial.control.protocol import ControlParts
 from sim.spatial.law.drive import next_check_s, preferred_velocity
@@ -153,41 +154,9 @@ class ArrayControl:
         return sel
 
     def _arrive(self, z: np.ndarray, go: np.ndarray, v: np.ndarray, w: np.ndarray, t: float):
-        """Robots at their site (or beside robots standing there) start work; schedule the next
-        check for when the driving robot nearest its arrival zone could first be in it."""
-        p = self.parts
-        f, c, tol, reach = p.fleet, p.controller, p.arrive_tol_m, p.reach_m
-        gap = np.abs(f.site - z)
-        zone = tol + 2 * reach
-        there = go & (gap <= zone)
-        if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
-            if p.avoid:  # no pushing in: a slot, or wait for the service point
-                p.jobs.sites.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)
-                queue = np.zeros(0, dtype=int)
-            else:
-                queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]
-            there &= gap <= tol
-            if queue.size:  # touching a robot that stands nearer the site: the site is taken,
-                # and working beside the robots already there counts as arrived
-                standing = (f.state != DRIVING) & ~f.yielding
-                if len(z) <= c.dense_max:  # every queued robot, every standing one
-                    zs = z[standing.nonzero()[0]]
-                    nearer = np.abs(zs[None, :] - f.site[queue, None]) < gap[queue, None]
-                    nearer &= np.abs(zs[None, :] - z[queue, None]) <= reach  # touching
-                    there[queue] = nearer.any(axis=1)
-                else:  # ... against its neighbours only (look_m > reach_m)
-                    i, k = c.neighbour_pairs(z)
-                    queued = np.zeros(len(z), dtype=bool)
-                    queued[queue] = True
-                    sel = (queued[i] & standing[k]).nonzero()[0]
-                    i, k = i[sel], k[sel]
-                    nearer = np.abs(z[k] - f.site[i]) < gap[i]
-                    nearer &= np.abs(z[k] - z[i]) <= reach  # touching
-                    there[queue] = False
-                    there[i[nearer]] = True
-            p.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
-        nearest = float(np.where(go, gap, np.inf).min()) - zone
-        p.schedule.site_check_s = next_check_s(t, nearest, c.speed_bound * c.v_max_mps)
+        """Arrivals (``sim.spatial.control.arrival``), against neighbours in large fleets."""
+        c = self.parts.controller
+        arrive(self.parts, z, go, v, w, t, None if len(z) <= c.dense_max else c.neighbour_pairs)
 
     def _near(self, z, th, h, hc, v, w, t: float) -> None:
         """Proximity caps, keep-right and make-way (writes ``v``, ``w`` in place)."""

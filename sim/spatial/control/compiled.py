@@ -9,8 +9,8 @@ before, between and after its stages for the events only:
    its progress. If that leaves something to Python, the call returns and Python acts in the
    order ``ArrayControl`` does: yields to stop (``Jobs.stop_yield``), robots past where they got
    stuck (``Jobs.recovered``), the stuck check and arrival when they are due
-   (``Jobs.check_stuck``, :func:`arrive`), the end of work (``Jobs.end_due``); then it calls
-   again for the rest.
+   (``Jobs.check_stuck``, ``sim.spatial.control.arrival``), the end of work
+   (``Jobs.end_due``); then it calls again for the rest.
 3. The second half (``kernel.commands``): ORCA for the robots that steer themselves, the
    proximity caps, keep-right and the make-way requests, the wall lines, the speed caps toward
    obstacles and the wheel limits. A make-way request (``Jobs.make_way``) is handled between the
@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sim.spatial.control.arrival import arrive
 from sim.spatial.control.kernel.settings import avoid_law, drive_law
 from sim.spatial.control.kernel.views import (
     edges_of,
@@ -201,30 +202,3 @@ class CompiledControl:
             closing = 2.0 * c.speed_bound * c.v_max_mps
             p.schedule.prox_check_s = next_check_s(t, distance - c.look_m, closing)
         f.clear_way()
-
-
-def arrive(p: ControlParts, z: np.ndarray, go: np.ndarray, v, w, t: float) -> None:
-    """Robots at their site (or beside robots standing there) start work; the next check is
-    scheduled for when the driving robot nearest its arrival zone could first be in it
-    (``ArrayControl._arrive``, whose rules these are)."""
-    f, c, tol, reach = p.fleet, p.controller, p.arrive_tol_m, p.reach_m
-    gap = np.abs(f.site - z)
-    zone = tol + 2 * reach
-    there = go & (gap <= zone)
-    if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
-        if p.avoid:  # no pushing in: a slot, or wait for the service point
-            p.jobs.sites.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)
-            queue = np.zeros(0, dtype=int)
-        else:
-            queue = (there & (gap > tol) & (f.near_m <= reach)).nonzero()[0]
-        there &= gap <= tol
-        if queue.size:  # touching a robot that stands nearer the site: working beside the
-            # robots already there counts as arrived
-            standing = ((f.state != DRIVING) & ~f.yielding).nonzero()[0]
-            zs = z[standing]
-            nearer = np.abs(zs[None, :] - f.site[queue, None]) < gap[queue, None]
-            nearer &= np.abs(zs[None, :] - z[queue, None]) <= reach  # touching
-            there[queue] = nearer.any(axis=1)
-        p.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
-    nearest = float(np.where(go, gap, np.inf).min()) - zone
-    p.schedule.site_check_s = next_check_s(t, nearest, c.speed_bound * c.v_max_mps)

@@ -9,6 +9,7 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from scenarios.experiments.hardcases import LOOK_AHEAD_DEFAULT
 from sim.scenario import AVOIDANCE, LOOK_AHEAD
 
 EXIT_USAGE = 2
@@ -149,7 +150,7 @@ AVOIDANCE_HELP = (
 LOOK_AHEAD_HELP = (
     "robot-aware planning of a spatial scenario with avoidance on, overriding its [spatial] "
     "look_ahead: on (a robot whose way runs past a robot at work that would keep it waiting "
-    "plans round it when it is given its task or that robot begins work) or off (the default)"
+    "plans round it when it is given its task or that robot begins work; the default) or off"
 )
 
 
@@ -461,8 +462,9 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument(
         "--look-ahead",
         choices=("off", "on"),
-        default="off",
-        help="[spatial] look_ahead: plan round robots at work in the way (default off)",
+        default=LOOK_AHEAD_DEFAULT,
+        help="[spatial] look_ahead: plan round robots at work in the way "
+        f"(default {LOOK_AHEAD_DEFAULT})",
     )
     h.add_argument(
         "--control",

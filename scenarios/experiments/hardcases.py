@@ -31,6 +31,8 @@ from sim.spatial.world import PymunkWorld
 from sim.states import DRIVING, WORKING
 from sim.tasks import Batch
 
+LOOK_AHEAD_DEFAULT = SpatialSpec.__dataclass_fields__["look_ahead"].default
+
 ONE_MPS = DriveSpec(max_wheel_speed_radps=12.5)  # 0.08 m wheels: 1 m/s top speed, radius 0.25 m
 SITE_WORK_S = 2.0  # work per robot in the ``site`` case, s
 
@@ -44,7 +46,7 @@ def swap_world(
     obstacles=(),
     headings_deg=None,
     drive: DriveSpec = ONE_MPS,
-    look_ahead: str = "off",
+    look_ahead: str = LOOK_AHEAD_DEFAULT,
     check_layout: bool = True,
     settings: dict | None = None,
 ) -> PymunkWorld:
@@ -172,7 +174,7 @@ def run_case(
     on_tick=None,
     jitter_m: float = 0.0,
     seed: int = 0,
-    look_ahead: str = "off",
+    look_ahead: str = LOOK_AHEAD_DEFAULT,
     settings: dict | None = None,
 ) -> dict:
     """Run hard case ``name`` with ``robots`` robots (the case's default if None),

@@ -453,7 +453,7 @@ class SpatialSpec:
         "orca", "collision avoidance: ORCA, or none (the proximity law alone)", choices=AVOIDANCE
     )
     look_ahead: str = setting(
-        "off", "plan round robots at work in the way when a task is given", choices=LOOK_AHEAD
+        "on", "plan round robots at work in the way when a task is given", choices=LOOK_AHEAD
     )
     law: LawSpec = table(LawSpec, "steering and the proximity law")
     orca: OrcaSpec = table(OrcaSpec, "collision avoidance")

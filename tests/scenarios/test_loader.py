@@ -312,11 +312,11 @@ def test_avoidance_words_are_kept():
     assert parse_scenario(d).spatial.avoidance == "orca"  # on unless a scenario says "none"
 
 
-def test_look_ahead_is_off_unless_a_scenario_turns_it_on():
+def test_look_ahead_is_on_unless_a_scenario_turns_it_off():
     d = doc()
-    assert parse_scenario(d).spatial.look_ahead == "off"
-    d["spatial"]["look_ahead"] = "on"
     assert parse_scenario(d).spatial.look_ahead == "on"
+    d["spatial"]["look_ahead"] = "off"
+    assert parse_scenario(d).spatial.look_ahead == "off"
     d["spatial"]["look_ahead"] = True
     assert fails(d) == "x.toml: spatial.look_ahead: must be a string, got boolean true"
 

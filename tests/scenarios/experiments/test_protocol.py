@@ -184,7 +184,10 @@ def test_resume_with_look_ahead_equals_the_straight_run(tmp_path, monkeypatch):
     scenario = small_spatial_file(tmp_path)
     spec = RunSpec(str(scenario), "market", "distance", 7, (("spatial.look_ahead", "on"),))
     straight = execute(spec, task_table=True)
-    off = execute(RunSpec(str(scenario), "market", "distance", 7), task_table=True)
+    off = execute(
+        RunSpec(str(scenario), "market", "distance", 7, (("spatial.look_ahead", "off"),)),
+        task_table=True,
+    )
     assert off["spatial"] != straight["spatial"] and off["task_table"] != straight["task_table"]
     for after in (2, 4):
         ck = tmp_path / f"ahead{after}.npz"

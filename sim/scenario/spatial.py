@@ -323,7 +323,7 @@ class TrafficSpec(_Section):
 
     SECTION: ClassVar[str] = "spatial.traffic"
     rules: str = setting(
-        "off", "single-lane passages entered under a directional lock", choices=TRAFFIC_RULES
+        "on", "single-lane passages entered under a directional lock", choices=TRAFFIC_RULES
     )
     passage_m: float = _share(
         0.0,

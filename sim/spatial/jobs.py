@@ -12,6 +12,9 @@ robots (``sim.spatial.jams``, ``Jobs.jams``).
 from __future__ import annotations
 
 import functools
+import weakref
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -148,7 +151,7 @@ class Jobs:
                 spatial=spatial,
                 held=self.held,
                 refresh=refresh,
-                clear_way=self.clear_way,
+                clear_way=_weak(self.clear_way),  # no cycle: a dropped world goes at once
             )
 
     def use_planner(self, planner: GridPlanner) -> None:
@@ -633,3 +636,14 @@ def _to_polyline(p: np.ndarray, way: np.ndarray) -> np.ndarray:
     u = ((p[:, None] - a[None, :]) * d.conj()[None, :]).real
     u = np.clip(u / np.maximum((d * d.conj()).real, 1e-18)[None, :], 0.0, 1.0)
     return np.abs(p[:, None] - (a[None, :] + u * d[None, :])).min(axis=1)
+
+
+def _weak(method: Callable) -> Callable:
+    """A bound method that does not keep its object alive (a collaborator that calls back
+    would otherwise make a reference cycle, freed only by a garbage collection)."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args: Any) -> Any:
+        return ref()(*args)
+
+    return call

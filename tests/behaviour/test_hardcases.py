@@ -42,15 +42,18 @@ def test_the_corridor_jam_is_broken_at_pass_s_not_at_the_stuck_timeout():
     """Two robots meet head-on in the 0.75 m corridor: with the jam rule (``Jams.break_jams``)
     one backs out 2 s after they stop; with it off (``pass_s`` out of reach) only after the
     20 s stuck timeout. Both finish without a contact; the rule saves the wait, less the 2 s
-    and a margin of 2 s for the turns."""
+    and a margin of 2 s for the turns. The traffic rules are off: they keep the two from
+    meeting (tests/behaviour/test_traffic.py)."""
     import dataclasses
 
     from sim.scenario import JamSpec, SpatialSpec
+    from sim.scenario.spatial import TrafficSpec
 
     stuck_s = {f.name: f.default for f in dataclasses.fields(SpatialSpec)}["stuck_timeout_s"]
     pass_s = JamSpec().pass_s
-    on = run_case("corridor")
-    off = run_case("corridor", settings={"jams": JamSpec(pass_s=3600.0)})
+    no_rules = TrafficSpec(rules="off")
+    on = run_case("corridor", settings={"traffic": no_rules})
+    off = run_case("corridor", settings={"jams": JamSpec(pass_s=3600.0), "traffic": no_rules})
     for out in (on, off):
         assert out["failed"] == 0 and out["still_driving"] == 0
         assert out["robot_touch"] + out["robot_impact"] == 0

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sim.scenario import JamSpec
+from sim.scenario.spatial import TrafficSpec
 from sim.states import DRIVING, WORKING
 from tests.worlds import swap_world, time_to_all_arrive, waypoints
 
@@ -19,7 +20,8 @@ def _gap_world(second_gap_y: float, look_ahead: str = "off", pass_s: float = Jam
     """A wall across a 12 x 8 m arena at x = 6 with a 1.4 m gap at y = 3, where a robot works
     (1000 s), and a second gap centred at ``second_gap_y``; robot 0 drives from (3, 3) to
     (9, 3), straight through the first gap (the planner ignores robots; ``[spatial]
-    look_ahead`` as given)."""
+    look_ahead`` as given). The traffic rules are off: these are the jam rules they fall back
+    on."""
     lo, hi = second_gap_y - 0.7, second_gap_y + 0.7
     walls = [((5.9, a), (6.1, a), (6.1, b), (5.9, b)) for a, b in [(0, 2.3), (3.7, lo), (hi, 8)]]
     starts, goals = [(3.0, 3.0), (6.0, 3.0)], [(9.0, 3.0), (6.0, 3.0)]
@@ -32,7 +34,7 @@ def _gap_world(second_gap_y: float, look_ahead: str = "off", pass_s: float = Jam
         "orca",
         walls,
         look_ahead=look_ahead,
-        settings={"jams": jams},
+        settings={"jams": jams, "traffic": TrafficSpec(rules="off")},
     )
 
 

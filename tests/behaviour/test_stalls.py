@@ -7,14 +7,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sim.scenario.spatial import TrafficSpec
 from sim.spatial.stalls import CAUSES
 from tests.worlds import swap_world, time_to_all_arrive
 
 
 def test_head_on_in_a_single_lane_is_counted_as_head_on():
     """Two robots swap ends of a corridor 0.75 m wide (one passes at a time): the one that
-    waits stands still facing the other; a robot alone in an open arena never stands for a
-    robot."""
+    waits stands still facing the other (the traffic rules off: they would hold it before the
+    corridor); a robot alone in an open arena never stands for a robot."""
     world = swap_world(
         [(3.5, 3.0), (8.5, 3.0)],
         [(9.5, 3.0), (2.5, 3.0)],
@@ -24,6 +25,7 @@ def test_head_on_in_a_single_lane_is_counted_as_head_on():
             ((4.0, 3.375), (8.0, 3.375), (8.0, 6.0), (4.0, 6.0)),
         ),
         headings_deg=[0.0, 180.0],
+        settings={"traffic": TrafficSpec(rules="off")},
     )
     assert np.isfinite(time_to_all_arrive(world, 120.0))
     out = world.summary()

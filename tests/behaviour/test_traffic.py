@@ -180,7 +180,7 @@ def test_a_robot_at_work_in_an_aisle_is_passed_in_the_lane_beside_it_one_way_at_
 def test_the_corridor_hard_case_is_quicker_with_the_rules():
     """Two robots swap ends of a 0.75 m corridor: without the rules they meet inside and one
     backs out (23.1 s); with them the second holds before its mouth."""
-    off = run_case("corridor")
+    off = run_case("corridor", settings=OFF)
     on = run_case("corridor", settings=ON)
     assert on["robot_touch"] == on["robot_impact"] == 0 and on["failed"] == 0
     assert on["time_s"] < off["time_s"] - 5.0

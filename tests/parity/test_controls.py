@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from sim.scenario import DriveSpec
+from sim.scenario.spatial import TrafficSpec
 from sim.spatial.control import (
     ArrayControl,
     ControlParts,
@@ -185,13 +186,16 @@ def test_both_controls_leave_the_same_state_in_the_hard_cases(
 ):
     """Beyond the commands: period after period of a hard case, both implementations leave the
     same fleet, schedule, path indices, site queues and completions. In the corridor robot 0 is
-    made to back off blind at 3 s (``Jobs.recover``, as at a stuck timeout with no way round)
-    and replans after it; without avoidance the array period looks for robots touching one at
-    the site among neighbour pairs (``dense_max`` set below the team, as beyond 64 robots).
+    made to back off blind at 3 s (``Jobs.recover``, as at a stuck timeout with no way round;
+    the traffic rules off, which would hold it before the corridor) and replans after it;
+    without avoidance the array period looks for robots touching one at the site among
+    neighbour pairs (``dense_max`` set below the team, as beyond 64 robots).
     Each case must show what it is there for."""
     from scenarios.experiments.hardcases import CASES
 
     kw = {} if drive is None else {"drive": drive}
+    if case == "corridor":
+        kw["settings"] = {"traffic": TrafficSpec(rules="off")}
     world, _ = CASES[case].build(robots, "scalar", avoidance, lambda s: np.asarray(s, float), **kw)
     if avoidance == "none":
         world.controller.dense_max = 4

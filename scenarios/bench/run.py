@@ -203,8 +203,11 @@ def bench_map_bids(rounds: int = 20, seed: int = 0) -> dict:
     sites = np.array([p for pts in sc.spatial.sites for p in pts], dtype=float)
     known = [sites[rng.choice(len(sites), 7, replace=False)] for _ in range(rounds)]
     size = np.array([sc.spatial.width_m, sc.spatial.height_m])
-    points = rng.uniform(0.0, size, (50 * rounds * 7, 2))
-    points = points[planner.free(points)][: rounds * 7].reshape(rounds, 7, 2)
+    free: list[np.ndarray] = []
+    while sum(map(len, free)) < rounds * 7:  # a few hundred at a time: free() is (n, P, E)
+        draw = rng.uniform(0.0, size, (200, 2))
+        free.append(draw[planner.free(draw)])
+    points = np.concatenate(free)[: rounds * 7].reshape(rounds, 7, 2)
     for name in ("", "_ref"):
         for kind, batches in (("known", known), ("new", points)):
             fresh = copy.copy(planner)  # the same arena with no goal fields yet

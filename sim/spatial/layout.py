@@ -74,20 +74,19 @@ def _starts(scenario: Scenario, spec: SpatialSpec, frame: Frame) -> np.ndarray:
                 f"robots[{j}].start",
                 f"{frame.xy(x, y)} puts a robot of radius {r:g} m outside the arena or into a wall",
             )
-    hit = inside_obstacle(spec, starts, r)
-    for j in np.flatnonzero(hit >= 0).tolist():
+    for margin in (r, r + spec.clearance_m):  # inside an obstacle first, then too close to one
+        hit = inside_obstacle(spec, starts, margin)
+        bad = np.flatnonzero(hit >= 0)
+        if not bad.size:
+            continue
+        j = int(bad[0])
+        where, xy, what = f"robots[{j}].start", frame.xy(*starts[j]), frame.obstacle(hit[j])
+        if margin == r:
+            fail(where, f"{xy} overlaps or is inside {what} (robot radius {r:g} m)")
         fail(
-            f"robots[{j}].start",
-            f"{frame.xy(*starts[j])} overlaps or is inside "
-            f"{frame.obstacle(hit[j])} (robot radius {r:g} m)",
-        )
-    reach = r + spec.clearance_m
-    near = inside_obstacle(spec, starts, reach)
-    for j in np.flatnonzero(near >= 0).tolist():
-        fail(
-            f"robots[{j}].start",
-            f"{frame.xy(*starts[j])} is within {reach:g} m (robot radius + clearance) of "
-            f"{frame.obstacle(near[j])}: the planner keeps robot centres farther away",
+            where,
+            f"{xy} is within {margin:g} m (robot radius + clearance) of {what}: "
+            "the planner keeps robot centres farther away",
         )
     pairs = cKDTree(starts).query_pairs(2.0 * r, output_type="ndarray")
     if len(pairs):  # touching (centres exactly two radii apart) is allowed

@@ -218,3 +218,54 @@ def test_the_warehouse_with_the_rules_finds_its_gaps_and_fails_no_task():
     assert sp["traffic_grants"] > 0 and sp["traffic_temporary"] > 0
     assert sp["failed_tasks"] == 0
     assert sp["contacts_robot_impact"] == 0
+
+
+def test_a_robot_beginning_work_reannotates_only_the_ways_that_pass_near_it():
+    """Robot 0 begins work in the middle of a 2 m aisle (a temporary passage across it).
+    In that control period robot 1, whose way runs along the aisle past it, is annotated
+    again (and then carries the new passage); robot 2, driving 12 m away on open floor, is
+    not: its way is farther than ``PassageMap.reach_m`` from robot 0."""
+    starts = [(6.0, 6.0), (14.0, 6.0), (20.0, 2.0)]
+    goals = [(8.0, 6.0), (2.0, 6.0), (28.0, 10.0)]
+    w = world(starts, goals, AISLE, ON, size=(30.0, 12.0))
+    tr = w.jobs.traffic
+    calls = []
+    plain = tr.annotate
+    tr.annotate = lambda j, t, round_workers=True: (calls.append(j), plain(j, t, round_workers))
+    while w.fleet.state[0] != WORKING:
+        calls.clear()
+        w.advance(0.1)
+        assert w.time_s < 5.0
+    assert (w.fleet.state[1:] == DRIVING).all()
+    assert tr.map.passages[tr.map.n_static + 0].centre == pytest.approx(8 + 6j, abs=0.1)
+    assert 1 in calls and 2 not in calls
+    assert tr.map.reach_m < 12.0
+    assert any(tr.map.n_static + 0 in c.keys for c in tr.chains[1])
+
+
+@pytest.mark.parametrize("case", ["one_gap", "aisle"])
+def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
+    """A control period in which nothing the rules follow changed returns at once
+    (``Traffic._quiet``); the same runs with every period taken in full are bit-identical."""
+    from sim.spatial.traffic.rules import Traffic
+
+    def trace():
+        if case == "one_gap":
+            w = world([(10.0, 6.0), (10.0, 9.0)], [(10.0, 9.0), (10.0, 6.0)], ONE_GAP, ON)
+        else:
+            starts = [(8.0, 6.0), (2.0, 6.0), (14.0, 6.0)]
+            goals = [(8.0, 6.0), (14.0, 6.0), (2.0, 6.0)]
+            w = world(starts, goals, AISLE, ON, size=(16.0, 12.0))
+        out = []
+        while w.time_s < 30.0:
+            w.advance(0.1)
+            out.append(w.fleet.last_z_m.copy())
+        return np.array(out), w.summary()
+
+    quick, quick_summary = trace()
+    with monkeypatch.context() as m:
+        m.setattr(Traffic, "_quiet", lambda self, drive: False)
+        full, full_summary = trace()
+    assert np.array_equal(quick, full)
+    assert quick_summary == full_summary
+    assert quick_summary["traffic_grants"] >= 2

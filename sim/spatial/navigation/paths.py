@@ -111,6 +111,7 @@ class PathFollower:
         self.free_[0], self.free_[1] = -np.inf, np.inf  # no path: never off it
         self.capped_ = np.zeros((2, m), dtype=bool)  # left, right width of it only >= cap_m
         self.version_ = 0  # counts changes of the current-segment arrays (caches compare it)
+        self.paths_set_ = 0  # counts paths given and cleared (the traffic rules compare it)
         self.lists_version_, self.lists_ = -1, []
 
     def set_paths(self, rows: list[int], paths: list[np.ndarray]) -> list[float]:
@@ -150,6 +151,7 @@ class PathFollower:
         ``free``: the free widths (P - 1, 2) of its segments if already known (:meth:`_free`),
         ``capped``: which of them are only known to be >= ``cap_m`` (:meth:`_free_capped`)."""
         n = len(path)
+        self.paths_set_ += 1
         if n > self.points.shape[1]:
             grow = ((0, 0), (0, n - self.points.shape[1]))
             self.points = np.pad(self.points, grow, mode="edge")
@@ -246,6 +248,7 @@ class PathFollower:
     def clear(self, j: int) -> None:
         """Robot j has no path (it stands)."""
         self.version_ += 1
+        self.paths_set_ += 1
         self.last[j] = -1
         self.index[j] = 0
         self.switch_[j], self.beyond_[j] = -1.0, -np.inf

@@ -45,6 +45,8 @@ class PassageMap:
         passage_m, lane_m: two lanes and one lane (``sim.spatial.traffic.passages``), m.
         pass_m: a robot passes one that stands this far from its way, m (two radii and
             ORCA's margins).
+        reach_m: a robot beginning or ending work can change the annotation of a way this
+            near it, m.
     """
 
     def __init__(self, spatial: SpatialSpec, radius_m: float, planner: GridPlanner) -> None:
@@ -54,6 +56,11 @@ class PassageMap:
         self.passage_m = self.spec.passage_m or two_lanes_m(r, margin, clear)
         self.lane_m = lane_m(r, margin, clear)
         self.pass_m = 2.0 * r + 2.0 * margin
+        # a robot at work affects the passages, holding points and ways this near it: its
+        # temporary passage lies within 1.5 passage_m + 3 r of it (room < passage_m each side,
+        # four radii long); a point is tested in one grown by a radius, a holding point lies
+        # aside_m off the way and a robot passes one that stands pass_m from its way
+        self.reach_m = 1.5 * self.passage_m + 5.0 * r + self.spec.aside_m + self.pass_m
         w, h = spatial.width_m, spatial.height_m
         static = find_passages(spatial.obstacles, w, h, self.passage_m, 2.0 * (r + clear))
         self.n_static = len(static)
@@ -98,16 +105,17 @@ class PassageMap:
     def update_workers(self, changed: np.ndarray, work: np.ndarray, z: np.ndarray) -> tuple:
         """Robots ``changed`` began or ended work (``work``: who works now, at ``z``): their
         temporary passages, and those of the robots at work near them (their room depends on
-        each other), are made again. Returns the keys dropped and the number of new
-        passages."""
+        each other), are made again. Returns the keys dropped, the number of new passages and
+        the robots whose passage came, went or changed."""
         r = self.radius_m
-        dropped = []
+        dropped, touched = [], []
         for w in changed.tolist():
             if self.passages.pop(self.n_static + w, None) is not None:
                 dropped.append(self.n_static + w)
+                touched.append(w)
         made = 0
         if not work.any() or not len(changed):
-            return dropped, made
+            return dropped, made, np.array(touched, dtype=int)
         reach = 2.0 * (self.passage_m + 2.0 * r)
         near = work & (np.abs(z[:, None] - z[changed][None, :]) < reach).any(axis=1)
         for w in near.nonzero()[0].tolist():
@@ -125,7 +133,9 @@ class PassageMap:
                 made += was is None
             elif was is not None:
                 dropped.append(key)
-        return dropped, made
+            if p != was and w not in touched:
+                touched.append(w)
+        return dropped, made, np.array(touched, dtype=int)
 
     def _shapes_near(self, z: complex) -> list[np.ndarray]:
         """The obstacles and walls within two lanes and a radius of point z."""

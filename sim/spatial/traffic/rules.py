@@ -2,15 +2,18 @@
 ``[spatial.traffic] rules = "on"``).
 
 Every driving robot's path is annotated with the chains of passages it crosses
-(``sim.spatial.traffic.annotate``) whenever the path changes. A robot ``request_m`` before a
-chain asks for it (``sim.spatial.traffic.locks``); it is let in when every passage of the
-chain is free or used its way and no standing robot (at work, idle, or holding) is on its way
-through the chain or within a radius plus ``exit_clear_m`` beyond its exit. A robot kept out
-holds at a holding point before the mouth, aside of the lane where there is room, its stuck
-clock stopped (drawn as waiting, counted by the stall meter as holding in a queue); its
-deadline moves on by the time it held. It frees each passage once its centre is a radius plus
-``release_m`` past it. A robot held ``hold_max_s`` drives on without the lock, and the jam
-rules (``sim.spatial.jams``) remain the fallback for whatever the locks do not prevent.
+(``sim.spatial.traffic.annotate``) whenever the path changes, and again when a robot near its
+way ahead begins or ends work (a temporary passage may come or go there). A robot
+``request_m`` before a chain asks for it (``sim.spatial.traffic.locks``); it is let in when
+every passage of the chain is free or used its way and no standing robot (at work, idle, or
+holding) is on its way through the chain or within a radius plus ``exit_clear_m`` beyond its
+exit. A robot kept out holds at a holding point before the mouth, aside of the lane where there
+is room, its stuck clock stopped (drawn as waiting, counted by the stall meter as holding in a
+queue); its deadline moves on by the time it held. It frees each passage once its centre is a
+radius plus ``release_m`` past it. A robot held ``hold_max_s`` drives on without the lock, and
+the jam rules (``sim.spatial.jams``) remain the fallback for whatever the locks do not prevent.
+A period in which no robot began or stopped driving or working, no path was given or cleared
+and the rules follow no robot returns at once.
 """
 
 from __future__ import annotations
@@ -94,6 +97,8 @@ class Traffic:
         self.sig = np.zeros((4, m), dtype=complex)  # the path each robot was annotated on
         self.sig[3] = np.nan
         self.working = np.zeros(m, dtype=bool)
+        self.driving = np.zeros(m, dtype=bool)  # who drove at the last full period
+        self.paths_seen = -1  # the follower's paths_set_ when the last period began
         self.counts = dict.fromkeys(COUNTS, 0.0)
 
     # -- one control period ---------------------------------------------------------------
@@ -103,18 +108,26 @@ class Traffic:
         drive = f.state == DRIVING
         work = f.state == WORKING
         moved = (work != self.working).any()
+        paths_set, self.paths_seen = self.paths_seen, self.follower.paths_set_
+        if not moved and paths_set == self.paths_seen and self._quiet(drive):
+            return  # nothing the rules follow, no path given or cleared, no one began driving
+        self.driving = drive
+        touched = np.zeros(len(drive), dtype=bool)
         if moved:
             changed = (work != self.working).nonzero()[0]
             self.working = work.copy()
             on = self.spec.at_work == "on"
-            dropped, made = self.map.update_workers(changed, work & on, f.last_z_m)
+            dropped, made, near = self.map.update_workers(changed, work & on, f.last_z_m)
             for key in dropped:
                 self.locks.drop_passage(key)
             self.counts["temporary"] += made
+            began = changed[work[changed]] if on else changed[:0]
+            spots = ((f.last_z_m[near], self.map.reach_m), (f.last_z_m[began], self.map.pass_m))
+            touched = self._touched(drive, spots, set(dropped))
         for j in (~drive & self._active()).nonzero()[0].tolist():
             self._drop(j, t)
         sig = self._signature()
-        changed = drive & ((sig != self.sig).any(axis=0) | moved)
+        changed = drive & ((sig != self.sig).any(axis=0) | touched)
         for j in changed.nonzero()[0].tolist():
             if self.held[j] and not moved:
                 self._unhold(j, t, replan=False)  # another rule gave it a path
@@ -140,6 +153,18 @@ class Traffic:
             self.counts["gave_up"] += 1
             self._unhold(j, t, replan=True)
 
+    def _quiet(self, drive: np.ndarray) -> bool:
+        """True if no robot began or stopped driving since the last period and the rules
+        follow none (no chain ahead, lock, request or hold): then a period changes nothing."""
+        locks = self.locks
+        return not (
+            locks.occupants
+            or locks.requests
+            or self.held.any()
+            or (drive != self.driving).any()
+            or any(self.chains)
+        )
+
     def _active(self) -> np.ndarray:
         """(m,) robots the rules follow: with a chain ahead, a lock, a request or holding."""
         out = self.held.copy()
@@ -148,6 +173,42 @@ class Traffic:
             out[list(occ)] = True
         out[list(self.locks.requests)] = True
         return out
+
+    def _touched(self, drive: np.ndarray, spots, dropped: set[int]) -> np.ndarray:
+        """(m,) driving robots whose annotation may change after robots began or ended work:
+        their way ahead (from where they are along their path) passes within ``reach`` of one
+        of the ``spots`` (pairs of points and reach: the robots whose temporary passage came,
+        went or changed, within ``PassageMap.reach_m``, as a passage or a holding point in one
+        may lie there; the robots that began work, within a pass, as a way may go round them),
+        or a chain ahead of them holds a passage ``dropped``."""
+        out = np.zeros(len(drive), dtype=bool)
+        fol = self.follower
+        rows = (drive & (fol.last >= 0)).nonzero()[0]
+        if not len(rows):
+            return out
+        for points, reach in spots:
+            if len(points):
+                out[rows[self._way_gap(rows, points) < reach]] = True
+        if dropped:
+            for j in rows.tolist():
+                if any(c.keys & dropped for c in self.chains[j]):
+                    out[j] = True
+        return out
+
+    def _way_gap(self, rows: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(len(rows),) distance from the nearest of ``points`` to each robot's way ahead: from
+        where it is to the waypoint it aims at, then along its path, m."""
+        fol = self.follower
+        pts, idx = fol.points[rows], fol.index[rows]
+        aim = pts[np.arange(len(rows)), idx]
+        gap = to_segments(points[None, :], self.fleet.last_z_m[rows, None], aim[:, None])[0]
+        gap = gap.min(axis=1)
+        if pts.shape[1] > 1:
+            seg = to_segments(points[None, None, :], pts[:, :-1, None], pts[:, 1:, None])[0]
+            ahead = np.arange(pts.shape[1] - 1)[None, :] >= idx[:, None]
+            seg = np.where(ahead[:, :, None], seg, np.inf)
+            gap = np.minimum(gap, seg.min(axis=(1, 2)))
+        return gap
 
     def _signature(self) -> np.ndarray:
         """(4, m) what identifies each robot's path: first and last point, last index, length."""

@@ -118,10 +118,14 @@ class PassageMap:
             return dropped, made, np.array(touched, dtype=int)
         reach = 2.0 * (self.passage_m + 2.0 * r)
         near = work & (np.abs(z[:, None] - z[changed][None, :]) < reach).any(axis=1)
+        # a robot at work farther than this is neither the nearest shape within passage_m of
+        # w's body nor the first one within passage_m on either side of it (bodies are
+        # disc_polygon's octagons, corners r / cos(pi / 8) out): it cannot change w's passage
+        counts_m = self.passage_m + 2.0 * r / np.cos(np.pi / 8) + 1e-9
         for w in near.nonzero()[0].tolist():
             key = self.n_static + w
             was = self.passages.pop(key, None)
-            others = z[work & (np.abs(z - z[w]) < reach)]
+            others = z[work & (np.abs(z - z[w]) < min(reach, counts_m))]
             others = others[np.abs(others - z[w]) > 1e-9]
             shapes = self._shapes_near(z[w])
             p = worker_passage(w, complex(z[w]), r, shapes, others, self.passage_m, self.lane_m)

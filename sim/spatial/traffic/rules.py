@@ -323,8 +323,14 @@ class Traffic:
         if self.spec.at_work != "on" or not work.any():
             return False
         rows = work.nonzero()[0]
-        gap, _ = to_segments(f.last_z_m[rows, None], pts[None, :-1], pts[None, 1:])
         pass_m = self.map.pass_m
+        zw = f.last_z_m[rows]  # those outside the way's box grown by a pass cannot be near it
+        box = (zw.real > pts.real.min() - pass_m) & (zw.real < pts.real.max() + pass_m)
+        box &= (zw.imag > pts.imag.min() - pass_m) & (zw.imag < pts.imag.max() + pass_m)
+        rows = rows[box]
+        if not len(rows):
+            return False
+        gap, _ = to_segments(f.last_z_m[rows, None], pts[None, :-1], pts[None, 1:])
         near_end = np.abs(f.last_z_m[rows] - pts[-1]) < pass_m
         rows = rows[(gap.min(axis=1) < pass_m - 1e-3) & ~near_end]
         if not len(rows):

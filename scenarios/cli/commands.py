@@ -328,6 +328,7 @@ def hardcase_line(case: str, r: dict, limit_s: float) -> str:
     return (
         f"{case}, {r['robots']} robots, avoidance {r['avoidance']}, "
         + ("look ahead on, " if r.get("look_ahead") == "on" else "")
+        + ("traffic rules on, " if r.get("traffic") == "on" else "")
         + f"{r['control']} control: {when}; robot-robot contacts {r['robot_touch']} touch "
         f"{r['robot_impact']} impact, robot-wall {r['wall_touch']} touch "
         f"{r['wall_impact']} impact; closest centres {r['closest_m']:.2f} m; "

@@ -186,7 +186,8 @@ def run_case(
     whether a run touches must not hang on the exact start (``mrta hardcase --jitter``).
 
     Returns:
-        ``{"case", "robots", "avoidance", "look_ahead", "control", "time_s" (inf: not all
+        ``{"case", "robots", "avoidance", "look_ahead", "traffic" (the traffic rules "on" or
+        "off" in this world), "control", "time_s" (inf: not all
         arrived within ``limit_s``), "still_driving", "robot_touch", "robot_impact", "wall_touch",
         "wall_impact", "closest_m" (closest two centres, sampled every 0.1 s), "failed",
         "jitter_m", "seed"}``,
@@ -247,6 +248,7 @@ def run_case(
         "robots": n,
         "avoidance": avoidance,
         "look_ahead": look_ahead,
+        "traffic": "on" if world.jobs.traffic is not None else "off",
         "control": world.control_kind,
         "time_s": t,
         "still_driving": int((world.fleet.state == DRIVING).sum()),

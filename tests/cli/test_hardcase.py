@@ -58,6 +58,13 @@ def test_cli_says_when_not_all_arrived(capsys):
     assert main(["hardcase", "corridor", "--limit-s", "5", "--no-progress"]) == 0
     line = capsys.readouterr().out.strip()
     assert "not all arrived within 5 s: 2 still driving" in line
+    assert "avoidance orca, look ahead on, traffic rules on, " in line  # the defaults
+
+
+def test_cli_says_when_the_traffic_rules_are_off(capsys):
+    assert main(["hardcase", "junction", "--avoidance", "none", "--no-progress"]) == 0
+    line = capsys.readouterr().out.strip()
+    assert "avoidance none, " in line and "traffic rules" not in line
 
 
 def test_cli_jitter_runs_seeds_one_to_n_and_the_summary_counts_them(capsys):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from sim.scenario import DriveSpec, RobotSpec, Scenario, SpatialSpec
+from sim.scenario.spatial import TrafficSpec
 from sim.spatial.navigation.planning import GridPlanner
 
 
@@ -20,9 +21,11 @@ def bench_scenario(
     dt_s: float = 1.0 / 60.0,
     control_hz: float = 10.0,
     avoidance: str = "none",
+    traffic: str = "on",
 ) -> Scenario:
     """A square arena for ``n`` robots on a start grid, with box obstacles and task sites
-    (``avoidance``: the ``[spatial] avoidance`` of the arena)."""
+    (``avoidance``: the ``[spatial] avoidance`` of the arena; ``traffic``: its
+    ``[spatial.traffic] rules``, which act only with avoidance on)."""
     side = max(20.0, float(np.ceil(np.sqrt(13.0 * n))))
     cols = int(np.ceil(np.sqrt(n)))
     pitch = side / (cols + 1)
@@ -50,6 +53,7 @@ def bench_scenario(
         dt_s=dt_s,
         control_hz=control_hz,
         avoidance=avoidance,
+        traffic=TrafficSpec(rules=traffic),
     )
     robots = tuple(RobotSpec(f"R{k + 1}", (0,), starts[k]) for k in range(n))
     return Scenario(f"bench{n}", ("T",), robots, ((1.0,),) * n, (2.0,), spatial=spatial)

@@ -74,6 +74,7 @@ def bench_sim(
     allocator=None,
     avoidance: str = "none",
     control: str = "auto",
+    traffic: str = "on",
 ) -> dict[str, dict[str, float]]:
     """Measure the pymunk world's speed for each robot count.
 
@@ -86,6 +87,7 @@ def bench_sim(
         allocator: ``allocator(scenario, world)`` returns the ``allocate(batch)`` callable of
             :func:`_run` (the auction), or None to hand tasks out in order.
         avoidance: ``[spatial] avoidance`` of the arenas, "none" or "orca".
+        traffic: their ``[spatial.traffic] rules`` (with avoidance on), "on" or "off".
         control: the world's control period (``PymunkWorld``'s ``control``).
 
     Returns:
@@ -117,7 +119,9 @@ def bench_sim(
             sim_s = DEFAULT_SIM_S.get(n, max(10.0, 12000.0 / n))
         else:
             sim_s = sim_seconds[n] if isinstance(sim_seconds, dict) else float(sim_seconds)
-        scenario = bench_scenario(n, rng, control_hz=control_hz, avoidance=avoidance)
+        scenario = bench_scenario(
+            n, rng, control_hz=control_hz, avoidance=avoidance, traffic=traffic
+        )
         world = PymunkWorld(scenario, control=control)
         sp = scenario.spatial
         world.recorder = TrajectoryRecorder(

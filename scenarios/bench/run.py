@@ -1,8 +1,9 @@
 """``mrta bench``: speed and memory, reported as ratios against baselines measured in the same run.
 
 - ``sim``: the full spatial loop in the units users pay: the real-time factor, wall seconds per
-  simulated robot-hour, the price of avoidance (wall time per simulated second with ORCA over
-  without, both measured in this process) and the loop's time per physics step in steps of a
+  simulated robot-hour, the price of avoidance (wall time per simulated second with ORCA and
+  the traffic rules, the defaults, over without avoidance, and with ORCA alone, the rules off,
+  over without: all measured in this process) and the loop's time per physics step in steps of a
   calibration space (``scenarios.bench.calibration``: the same contact-free space of as many robots
   in every run; the world's bare ``space.step`` on the same bodies is reported too, but its cost
   moves with the contacts). With 10 robots it is the paper scenario itself (``paper_spatial``,
@@ -74,11 +75,11 @@ class PlannedMarket:
 
 
 def bench_paper_loop(
-    sets: int = PAPER_SETS, seed: int = 0, avoidance: str = "none"
+    sets: int = PAPER_SETS, seed: int = 0, avoidance: str = "none", traffic: str = "on"
 ) -> dict[str, float]:
     """The 10-robot paper scenario through the whole loop of ``mrta run`` (with
-    ``[spatial] avoidance`` set to ``avoidance``), against bare ``space.step`` on the same
-    bodies afterwards.
+    ``[spatial] avoidance`` set to ``avoidance`` and ``[spatial.traffic] rules`` to
+    ``traffic``), against bare ``space.step`` on the same bodies afterwards.
 
     Returns:
         ``{"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
@@ -96,7 +97,7 @@ def bench_paper_loop(
     from sim.recording import TrajectoryRecorder
 
     part = (("stream.n_sets", sets), ("stream.learn_sets", sets), ("stream.test_sets", sets))
-    part += (("spatial.avoidance", avoidance),)
+    part += (("spatial.avoidance", avoidance), ("spatial.traffic.rules", traffic))
     spec = RunSpec("paper_spatial", "market", "distance", seed, part)
     scenario, stream, world, cost, allocator, rng = build_run(spec)
     recorder = TrajectoryRecorder.for_scenario(scenario)
@@ -285,40 +286,56 @@ def run_bench(parts=PARTS, progress: bool = True) -> dict:
 
 
 def bench_sim_part(say) -> dict:
-    """The ``sim`` part: the loops without and with avoidance, and what avoidance costs."""
+    """The ``sim`` part: the loops without avoidance, with ORCA and the traffic rules (the
+    defaults), and with ORCA alone (rules off), and what avoidance costs."""
     from scenarios.bench.loop import bench_sim
 
     say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
     out = {}
-    for key, avoidance in (("sim", "none"), ("sim_orca", "orca")):
-        synthetic = bench_sim(allocator=PlannedMarket, avoidance=avoidance)
-        paper = bench_paper_loop(avoidance=avoidance)
+    runs = (("sim", "none", "on"), ("sim_orca", "orca", "on"), ("sim_orca_alone", "orca", "off"))
+    for key, avoidance, traffic in runs:
+        synthetic = bench_sim(allocator=PlannedMarket, avoidance=avoidance, traffic=traffic)
+        paper = bench_paper_loop(avoidance=avoidance, traffic=traffic)
         paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
         out[key] = {"10": paper, **synthetic}
+
+    def price(on: dict, off: dict, prefix: str = "") -> float:
+        return (on[f"{prefix}wall_s"] / on[f"{prefix}sim_s"]) / (
+            off[f"{prefix}wall_s"] / off[f"{prefix}sim_s"]
+        )
+
     out["avoidance_price"] = {}
     for n, off in out["sim"].items():
-        on = out["sim_orca"][n]
-        price = {"price": (on["wall_s"] / on["sim_s"]) / (off["wall_s"] / off["sim_s"])}
+        on, alone = out["sim_orca"][n], out["sim_orca_alone"][n]
+        row = {"price": price(on, off), "orca_alone_price": price(alone, off)}
         if "busy_wall_s" in off:  # the 10-robot busy arena too
-            busy = (on["busy_wall_s"] / on["busy_sim_s"]) / (off["busy_wall_s"] / off["busy_sim_s"])
-            price["busy_price"] = busy
-        out["avoidance_price"][n] = price
+            row["busy_price"] = price(on, off, "busy_")
+            row["busy_orca_alone_price"] = price(alone, off, "busy_")
+        out["avoidance_price"][n] = row
     say(
-        "  robots  avoidance  real-time factor  wall s per robot-hour  loop in calibration "
+        "  robots  avoidance     real-time factor  wall s per robot-hour  loop in calibration "
         "steps per physics step (calibration step)  of it the control period  loop/bare step"
     )
+    labels = (("sim", "none"), ("sim_orca", "orca+rules"), ("sim_orca_alone", "orca alone"))
     for n in out["sim"]:
-        for key, label in (("sim", "none"), ("sim_orca", "orca")):
+        for key, label in labels:
             r = out[key][n]
             say(
-                f"  {n:>6}  {label:>9}  {r['rtf']:>16,.1f}  {r['s_per_robot_h']:>21.2f}  "
+                f"  {n:>6}  {label:>10}  {r['rtf']:>16,.1f}  {r['s_per_robot_h']:>21.2f}  "
                 f"{r['calib_ratio']:>14.2f} ({r['calib_step_us']:.1f} us){'':>24}"
                 f"{r['control_calib_ratio']:>6.2f}{'':>16}{r['bare_ratio']:.2f}"
             )
-        price = out["avoidance_price"][n]
+        p = out["avoidance_price"][n]
         what = "paper_spatial, the run loop" if n == "10" else "busy synthetic arena"
-        extra = f"; busy arena {price['busy_price']:.2f}" if "busy_price" in price else ""
-        say(f"          price of avoidance {price['price']:.2f} ({what}{extra})")
+        extra = (
+            f"; busy arena {p['busy_price']:.2f}, ORCA alone {p['busy_orca_alone_price']:.2f}"
+            if "busy_price" in p
+            else ""
+        )
+        say(
+            f"          price of avoidance {p['price']:.2f}, ORCA alone (traffic rules off) "
+            f"{p['orca_alone_price']:.2f} ({what}{extra})"
+        )
     for n, r in out["sim"].items():
         if "field_build_s" in r:
             say(

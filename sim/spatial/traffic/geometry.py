@@ -6,6 +6,8 @@ arrays. Pure functions, no state.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 TOL_M = 1e-9  # a line touching a polygon's boundary meets it
@@ -18,6 +20,11 @@ def as_complex(poly) -> np.ndarray:
         return arr.astype(complex).reshape(-1)
     arr = arr.astype(float).reshape(-1, 2)
     return arr[:, 0] + 1j * arr[:, 1]
+
+
+def _next(poly: np.ndarray) -> np.ndarray:
+    """Each vertex's successor (``np.roll(poly, -1)``, without its overhead)."""
+    return np.concatenate((poly[1:], poly[:1]))
 
 
 def to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -33,8 +40,8 @@ def to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray
 def polygon_gap(pa: np.ndarray, pb: np.ndarray) -> tuple[float, complex, complex]:
     """Distance between two disjoint convex polygons and the nearest points (on ``pa``, on
     ``pb``); 0 where they touch or overlap (then the points are a vertex and its nearest)."""
-    a0, a1 = pa, np.roll(pa, -1)
-    b0, b1 = pb, np.roll(pb, -1)
+    a0, a1 = pa, _next(pa)
+    b0, b1 = pb, _next(pb)
     d_ab, near_ab = to_segments(pa[:, None], b0[None, :], b1[None, :])  # vertices of a to b
     d_ba, near_ba = to_segments(pb[:, None], a0[None, :], a1[None, :])  # vertices of b to a
     i, k = np.unravel_index(int(d_ab.argmin()), d_ab.shape)
@@ -50,7 +57,7 @@ def polygon_gap(pa: np.ndarray, pb: np.ndarray) -> tuple[float, complex, complex
 
 def inside(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
     """(n,) True where a point lies strictly inside the convex CCW polygon ``poly``."""
-    e0, e1 = poly, np.roll(poly, -1)
+    e0, e1 = poly, _next(poly)
     cross = ((e1 - e0)[None, :].conj() * (np.asarray(points)[:, None] - e0[None, :])).imag
     return (cross > TOL_M).all(axis=1)
 
@@ -58,7 +65,7 @@ def inside(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
 def clip_line(origin: complex, direction: complex, poly: np.ndarray) -> tuple[float, float]:
     """The interval of t where ``origin + t direction`` lies in the convex CCW polygon
     (boundary included); (inf, -inf) if the line misses it."""
-    e0, e1 = poly, np.roll(poly, -1)
+    e0, e1 = poly, _next(poly)
     edge = e1 - e0
     # inside: the point is left of every edge, cross(edge, p - e0) >= 0
     base = (edge.conj() * (origin - e0)).imag  # cross at t = 0
@@ -102,9 +109,16 @@ def clip_segments(
 
 def disc_polygon(centre: complex, radius_m: float, sides: int = 8) -> np.ndarray:
     """A regular polygon circumscribing the disc of ``radius_m`` round ``centre`` (CCW)."""
+    return centre + _corners(radius_m, sides)
+
+
+@functools.lru_cache(maxsize=64)
+def _corners(radius_m: float, sides: int) -> np.ndarray:
+    """:func:`disc_polygon`'s corners round the origin (read-only, computed once)."""
     k = np.arange(sides)
     corner = radius_m / np.cos(np.pi / sides) * np.exp(1j * (np.pi / sides + 2 * np.pi * k / sides))
-    return centre + corner
+    corner.flags.writeable = False
+    return corner
 
 
 def walls(width_m: float, height_m: float, thick_m: float = 1.0) -> list[np.ndarray]:

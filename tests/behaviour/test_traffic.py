@@ -269,3 +269,35 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     assert np.array_equal(quick, full)
     assert quick_summary == full_summary
     assert quick_summary["traffic_grants"] >= 2
+
+
+def test_a_robot_kept_out_at_the_mouth_holds_off_the_lane_round_it():
+    """Robot 1 stands 0.45 m above the gap's mouth, robots at work on either side of its way
+    (0.8 m left and right, 0.45 m higher): no holding point lies on its way before the mouth,
+    so it holds at the first free point round it (``PassageMap.spot_near``) instead of in the
+    lane out of the mouth, where it stood in robot 0's way out (both through at 32.3 s then,
+    by the jam rules). The point keeps a pass off that lane; both are through by 15 s, one at
+    a time, without a contact."""
+    starts = [(10.0, 6.0), (10.0, 8.45), (9.2, 8.9), (10.8, 8.9)]
+    goals = [(10.0, 9.5), (10.0, 6.0), (9.2, 8.9), (10.8, 8.9)]
+    w = world(starts, goals, ONE_GAP, ON)
+    tr = w.jobs.traffic
+    w.advance(0.1)
+    assert tr.locks.occupants == {0: {0: 1}} and w.jobs.held.tolist() == [False, True, False, False]
+    spot = complex(tr.hold_at[1])
+    assert tr.counts["spot_near"] == 1 and abs(spot - (10 + 8.45j)) > 0.5
+    # off the lane out of the gap's upper mouth (x = 10, y 8 to 10) by a pass
+    lane = abs(spot - complex(10.0, min(max(spot.imag, 8.0), 10.0)))
+    assert lane >= tr.map.pass_m
+    chain, keep = tr.chains[1][0], tr.near_m + 0.1
+    assert tr.map.spot_near(10 + 8.45j, chain, np.array([spot]), keep) != spot  # others avoided
+    crowd = (np.arange(0.0, 20.0, 0.5)[:, None] + 1j * np.arange(0.0, 15.0, 0.5)[None, :]).ravel()
+    assert tr.map.spot_near(10 + 8.45j, chain, crowd, keep) is None  # then it holds where it is
+    seen = {"both": 0}
+
+    def each(w):
+        seen["both"] += against_each_other(w)
+
+    assert run(w, 60.0, each) < 15.0
+    assert seen["both"] == 0 and w.contacts.robot_hits == 0 and w.jobs.failures == 0
+    assert w.summary()["traffic_spot_near"] == 1

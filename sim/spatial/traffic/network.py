@@ -28,6 +28,8 @@ from sim.spatial.traffic.passages import (
 
 LANE_OUT_M = 2.0  # a holding point keeps a pass off this much of the lane out of a mouth, m
 HOLD_STEP_M = 0.25  # holding points are looked for every this much farther back, m
+NEAR_RINGS = (1.0, 1.5, 2.0, 3.0)  # spot_near's rings round the robot, in passes
+NEAR_POINTS = 16  # points on each ring
 
 
 class PassageMap:
@@ -202,4 +204,30 @@ class PassageMap:
             if len(others) and np.abs(others - s).min() < keep_m:
                 continue
             return s
+        return None
+
+    def spot_near(self, z: complex, chain: Chain, others: np.ndarray, keep_m: float):
+        """Where a robot at ``z`` kept out of ``chain`` holds when its way before the mouth
+        has no holding point (it stands too near the mouth, or others hold there): of
+        ``NEAR_POINTS`` points on each ring of ``NEAR_RINGS`` passes round it, nearest ring
+        first and on a ring the farthest from the mouth first, the first that is a holding
+        point (:meth:`open_spot`, a robot passing it on the side away from the mouth), a
+        radius plus ``hold_m`` or more from the mouth and ``keep_m`` from every point of
+        ``others``; None if there is none."""
+        back = self.radius_m + self.spec.hold_m
+        mouth = chain.zone[0]
+        key, direction = chain.passages[0]
+        turn = np.exp(2j * np.pi * np.arange(NEAR_POINTS) / NEAR_POINTS)
+        for ring in NEAR_RINGS:
+            cand = z + ring * self.pass_m * turn
+            for s in cand[np.argsort(-np.abs(cand - mouth), kind="stable")].tolist():
+                if abs(s - mouth) < back - 1e-6:
+                    continue
+                away = s - mouth
+                to_left = 1j * away / abs(away)
+                if not self.open_spot(s, to_left, key, direction):
+                    continue
+                if len(others) and np.abs(others - s).min() < keep_m:
+                    continue
+                return s
         return None

@@ -34,7 +34,7 @@ from sim.spatial.traffic.locks import Locks
 from sim.spatial.traffic.network import PassageMap
 from sim.states import DRIVING, IDLE, WORKING
 
-COUNTS = ("holds", "hold_s", "gave_up", "temporary", "round")  # this module's (Locks has more)
+COUNTS = ("holds", "hold_s", "gave_up", "temporary", "round", "spot_near")  # (Locks has more)
 ROUND_AIR_M = 0.02  # a way planned round a robot at work keeps this much more than a body, m
 DETOUR_M = 0.2  # a path this much longer than the shortest is a detour another rule chose, m
 
@@ -61,7 +61,8 @@ class Traffic:
         locks: the directional locks (:class:`sim.spatial.traffic.locks.Locks`).
         counts: ``holds`` (robots kept out), ``hold_s`` (seconds held), ``gave_up`` (holds
             past ``hold_max_s``), ``temporary`` (passages made by robots at work), ``round``
-            (ways planned round robots at work).
+            (ways planned round robots at work), ``spot_near`` (holds at a point round the
+            robot, none being on its way: ``PassageMap.spot_near``).
     """
 
     def __init__(
@@ -386,8 +387,9 @@ class Traffic:
         self.refresh()
 
     def _spot(self, j: int) -> complex | None:
-        """Robot j's holding point before its chain (``PassageMap.spot``), clear of the other
-        robots and of the points others hold at; None if there is none."""
+        """Robot j's holding point before its chain (``PassageMap.spot``, else one round it:
+        ``PassageMap.spot_near``), clear of the other robots and of the points others hold
+        at; None if there is none."""
         fol = self.follower
         last = int(fol.last[j])
         if last < 0:
@@ -395,7 +397,12 @@ class Traffic:
         z = complex(self.fleet.last_z_m[j])
         pts = np.concatenate([[z], fol.points[j, int(fol.index[j]) : last + 1]])
         others = np.concatenate([np.delete(self.fleet.last_z_m, j), self.hold_at[self.held]])
-        return self.map.spot(pts, self.chains[j][0], others, self.near_m + 0.1)
+        chain, keep_m = self.chains[j][0], self.near_m + 0.1
+        spot = self.map.spot(pts, chain, others, keep_m)
+        if spot is None:  # none on its way: look round it rather than stand in the lane out
+            spot = self.map.spot_near(z, chain, others, keep_m)
+            self.counts["spot_near"] += spot is not None
+        return spot
 
     def _unhold(self, j: int, t: float, replan: bool) -> None:
         """Robot j stops holding: its deadline counts the time it held; with ``replan`` it

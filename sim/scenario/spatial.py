@@ -158,6 +158,14 @@ class OrcaSpec(_Section):
     max_neighbours: int = setting(
         10, "nearest robots in range that give a half-plane", lo=1, hi=100
     )
+    wall_lines: int = setting(
+        4,
+        "obstacle half-planes per robot: the nearest point of each obstacle edge in reach, "
+        "nearest first, less points on or behind a nearer one's line (1: the nearest obstacle "
+        "point only)",
+        lo=1,
+        hi=16,
+    )
     back_share: float = _share(
         0.0, "share of the top speed a robot may reverse at to honour its half-planes"
     )
@@ -183,6 +191,22 @@ class OrcaSpec(_Section):
         "(0: everywhere)",
         100.0,
         "m",
+    )
+    bias_meet_deg: float = setting(
+        30.0,
+        "the right-hand bias only in a meeting: a robot in the program lies within this angle "
+        "of the robot's preferred velocity relative to that robot's velocity "
+        "(180: every robot, as without the rule)",
+        unit="deg",
+        lo=0.0,
+        hi=180.0,
+    )
+    bias_stand_s: float = _share(
+        1.0,
+        "... or the robot has made no progress along its path for this long "
+        "(with bias_meet_deg below 180)",
+        1000.0,
+        "s",
     )
 
 

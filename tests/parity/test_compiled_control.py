@@ -32,16 +32,22 @@ from sim.scenario.overrides import apply_overrides
 from sim.spatial.control.array import ArrayControl
 from sim.spatial.control.compiled import CompiledControl
 from sim.spatial.law import orca as law
+from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.world import PymunkWorld
 from sim.tasks import Batch
 
-# (scenario, avoidance, simulated seconds): what avoidance on and off, a warehouse's lanes and
-# shelves, and a team of a hundred (the numpy period's k-d tree neighbours) exercise
+# (scenario, avoidance, simulated seconds, more overrides): what avoidance on and off, a
+# warehouse's lanes and shelves, a team of a hundred (the numpy period's k-d tree neighbours),
+# the right-hand bias in meetings only and a wall line from every obstacle edge in reach exercise
+MEETINGS = (("spatial.orca.bias_meet_deg", 30.0), ("spatial.orca.bias_stand_s", 1.0))
+EDGES = (("spatial.orca.wall_lines", 4),)
 SCENES = (
-    ("paper_spatial", "orca", 60.0),
-    ("warehouse", "orca", 60.0),
-    ("paper_spatial", "none", 40.0),
-    ("large", "orca", 10.0),
+    ("paper_spatial", "orca", 60.0, ()),
+    ("warehouse", "orca", 60.0, ()),
+    ("paper_spatial", "none", 40.0, ()),
+    ("large", "orca", 10.0, ()),
+    ("warehouse", "orca", 30.0, MEETINGS),
+    ("warehouse", "orca", 30.0, EDGES),
 )
 FIELDS = ("left_m", "progress_m", "t_progress_s", "moved_m", "state")
 
@@ -83,7 +89,10 @@ class Programs:
         self.infeasible: set[int] = set()
         self.orca_v: dict[int, float] = {}
         self.rows = np.zeros(0, dtype=int)
+        self.biased = [0, 0]  # robot-periods the bias rule let turn, and held straight
+        self.walls = [0, 0]  # robot-periods with one obstacle line, and with more
         solve, rows_fn, walls_fn = law.solve, law.steer_rows, law.steer_walls
+        meeting, points_fn = law.meeting, PathFollower.obstacle_points
         clear = array_period.steer_clear
 
         def solve_(normal, offset, pref, v_max):
@@ -97,11 +106,25 @@ class Programs:
             self.rows = np.asarray(rows)
             return rows_fn(z, h, rows, *args, **kw)
 
-        def steer_walls_(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes, p):
-            normal, offset = law.wall_lines(z, rows, radius_m, to_obstacle, lanes, p=p)
+        def steer_walls_(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes, p, pts):
+            normal, offset = law.wall_lines(z, rows, radius_m, to_obstacle, lanes, p=p, points=pts)
             plan = (v_plan * h[rows])[:, None]
             self.rows = np.asarray(rows)[(offset - (plan * normal.conj()).real).max(axis=1) > 1e-9]
-            return walls_fn(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes, p)
+            return walls_fn(z, h, rows, v_plan, pref, radius_m, v_max, to_obstacle, lanes, p, pts)
+
+        def points_(fol, z, reach_m, count):
+            out = points_fn(fol, z, reach_m, count)
+            more = np.isfinite(out[:, 1:]).any(axis=1)
+            self.walls[0] += int((~more).sum())
+            self.walls[1] += int(more.sum())
+            return out
+
+        def meeting_(*args, **kw):
+            allow = meeting(*args, **kw)
+            if allow is not None:
+                self.biased[0] += int(allow.sum())
+                self.biased[1] += int((~allow).sum())
+            return allow
 
         def steer_clear_(*args, **kw):
             out = clear(*args, **kw)
@@ -112,6 +135,8 @@ class Programs:
         monkeypatch.setattr(law, "solve", solve_)
         monkeypatch.setattr(law, "steer_rows", steer_rows_)
         monkeypatch.setattr(law, "steer_walls", steer_walls_)
+        monkeypatch.setattr(law, "meeting", meeting_)
+        monkeypatch.setattr(PathFollower, "obstacle_points", points_)
         monkeypatch.setattr(array_period, "steer_clear", steer_clear_)
 
     def clear(self) -> None:
@@ -150,14 +175,15 @@ def compare(world, twin, programs: Programs, tally: dict) -> list[str]:
     return out
 
 
-def run_scene(name: str, avoidance: str, seconds: float, monkeypatch) -> dict:
+def run_scene(name: str, avoidance: str, seconds: float, more: tuple, monkeypatch) -> dict:
     """Play the scene with the reference period; a compiled twin at every period."""
-    scenario = apply_overrides(load_named(name), (("spatial.avoidance", avoidance),))
+    scenario = apply_overrides(load_named(name), (("spatial.avoidance", avoidance), *more))
     rng = np.random.default_rng(7)
     world = PymunkWorld(scenario, control="array")
     world.reset(rng)
     programs = Programs(monkeypatch)
     tally = dict(periods=0, infeasible=0, zero_sign=0, worst_v=0.0, worst_q=0.0, failures=[])
+    tally["biased"], tally["walls"] = programs.biased, programs.walls
     reference = ArrayControl.period
 
     def period(control, t: float) -> None:
@@ -189,15 +215,31 @@ def run_scene(name: str, avoidance: str, seconds: float, monkeypatch) -> dict:
     return tally
 
 
-@pytest.mark.parametrize("scene", SCENES, ids=[f"{s[0]}-{s[1]}" for s in SCENES])
+@pytest.mark.parametrize(
+    "scene",
+    SCENES,
+    ids=[f"{s[0]}-{s[1]}" + {MEETINGS: "-meetings", EDGES: "-edges"}.get(s[3], "") for s in SCENES],
+)
 def test_compiled_period_commands_what_the_numpy_period_commands(scene, monkeypatch, report_line):
     tally = run_scene(*scene, monkeypatch)
-    name, avoidance, _ = scene
+    name, avoidance, _, more = scene
     report_line(
         f"compiled vs numpy control period, {name} ({avoidance}): {tally['periods']} periods, "
         f"commands differ by at most {tally['worst_v']:.1e} (v) and {tally['worst_q']:.1e} (q) "
         f"m/s; {tally['infeasible']} robot-periods with an infeasible program (new rule, not "
         f"compared), {tally['zero_sign']} robots in the way keyed on a rounding zero"
+        + (
+            f"; bias in meetings: {tally['biased'][0]} turned, {tally['biased'][1]} not"
+            * (more == MEETINGS)
+        )
+        + (
+            f"; obstacle lines: {tally['walls'][0]} with one, {tally['walls'][1]} with more"
+            * (more == EDGES)
+        )
     )
     assert tally["periods"] > 5 * scene[2]  # 10 Hz, most periods not resting
     assert not tally["failures"], tally["failures"][:5]
+    if more == MEETINGS:  # the rule decided both ways, and the compiled period followed it
+        assert min(tally["biased"]) > 0, tally["biased"]
+    if more == EDGES:  # robots with one wall line and with several, and the kernel followed
+        assert min(tally["walls"]) > 0, tally["walls"]

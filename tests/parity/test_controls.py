@@ -8,11 +8,12 @@ scalar speed caps toward obstacles equal the array ones."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
 
-from sim.scenario import DriveSpec
+from sim.scenario import DriveSpec, OrcaSpec
 from sim.scenario.spatial import TrafficSpec
 from sim.spatial.control import (
     ArrayControl,
@@ -93,12 +94,17 @@ def to_next_period(world: PymunkWorld) -> None:
     world.goal_s_ = world.clock.steps * world.dt_s
 
 
-@pytest.mark.parametrize("avoidance", ["none", "orca"])
+@pytest.mark.parametrize("avoidance", ["none", "orca", "orca-everywhere-nearest"])
 def test_both_controls_command_the_same_wheels_from_the_same_state(avoidance):
     """Period after period of a crowded run, both implementations get a copy of the same state
     and must command the same wheels, see the same robot in the way and start the same work;
-    with ORCA too (its commands, the turn-first wheel limit, site queues)."""
-    sc = crowd_scenario(avoidance)
+    with ORCA too (its commands, the turn-first wheel limit, site queues: by default its
+    right-hand bias in meetings and a wall line per obstacle edge in reach; and with the bias
+    everywhere and the nearest obstacle point alone)."""
+    sc = crowd_scenario(avoidance.split("-")[0])
+    if avoidance.endswith("nearest"):
+        orca = OrcaSpec(bias_meet_deg=180.0, wall_lines=1)
+        sc = dataclasses.replace(sc, spatial=dataclasses.replace(sc.spatial, orca=orca))
     world = PymunkWorld(sc, control="scalar")  # exact free widths and the lists: both can run
     k = [0, 1, 4]
     sites = np.array(sc.spatial.sites[0], dtype=float)[k]
@@ -121,6 +127,7 @@ def test_both_controls_command_the_same_wheels_from_the_same_state(avoidance):
     assert blocked > 20  # robots met: the proximity caps were at work ...
     if avoidance == "none":
         assert nearest < world.controller.keep_right_m  # ... and keep-right
+    assert world.control.parts.orca.wall_lines == (1 if avoidance.endswith("nearest") else 4)
     assert sorted(c.task_id for c in done if c.ok) == [0, 1, 2]  # arrivals and ends of work
 
 

@@ -31,6 +31,7 @@ COS_TURN = math.cos(LawSpec().turn_in_place_rad)
 HEADING_GAIN = LawSpec().heading_gain
 BIAS_ROOM_M = DEFAULT.bias_room_m
 KEEP_RIGHT = DEFAULT.keep_right
+MEET_DEG = OrcaSpec().bias_meet_deg
 LANE_AIR_M = OrcaSpec().lane_air_m
 LANE_NARROW_M = OrcaSpec().lane_narrow_m
 LANE_NEAR_M = OrcaSpec().lane_near_m
@@ -112,8 +113,10 @@ def avoid_reference(
 ):
     """``sim.spatial.law.orca.avoid`` of commit 5f5188e (then ``sim.orca.avoid``), before the
     staged solve: the oracle; its right-hand bias since taken only where the body has more
-    than ``BIAS_ROOM_M`` of room to the nearest obstacle, and its forward program with the
-    slacks, as the law now does. Arguments and result as ``sim.spatial.law.orca.avoid``."""
+    than ``BIAS_ROOM_M`` of room to the nearest obstacle and in a meeting (a neighbour within
+    ``MEET_DEG`` of the preferred velocity relative to the neighbour's; no robot has stood
+    here), and its forward program with the slacks, as the law now does. Arguments and result
+    as ``sim.spatial.law.orca.avoid``."""
     reach = orca_range_m(radius_m, v_max)
     table = neighbour_table(z, rows, reach)
     if table is None:
@@ -144,7 +147,16 @@ def avoid_reference(
     normal, offset, hi, pref = normal[bind], offset[bind], hi[bind], pref[bind]
     k_robots = normal.shape[1]
     ob = to_obstacle(zi[bind])
-    pref = pref * np.where(np.abs(ob) - radius_m > BIAS_ROOM_M, KEEP_RIGHT, 1.0)
+    meets = [  # a neighbour within MEET_DEG of the preferred velocity relative to its own
+        any(
+            abs(np.angle((z[k] - z[i]) / (p - vel[k]))) < math.radians(MEET_DEG)
+            for k, real in zip(ks, ms, strict=True)
+            if real and p != vel[k]
+        )
+        for i, ks, ms, p in zip(rows[bind], idx[bind], mask[bind], pref, strict=True)
+    ]
+    room = np.abs(ob) - radius_m > BIAS_ROOM_M
+    pref = pref * np.where(room & np.array(meets, dtype=bool), KEEP_RIGHT, 1.0)
     on, oc = obstacle_plane(ob, r_eff + WALL_GAP_M, 1.0 / TAU_OBSTACLE_S)
     normal = np.concatenate([normal, on[:, None]], axis=1)
     offset = np.concatenate([offset, oc[:, None]], axis=1)

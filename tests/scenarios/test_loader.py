@@ -68,6 +68,7 @@ def test_bundled_files_are_listed_per_folder():
         "avoidance_seeds5_9",
         "avoidance_warehouse30",
         "avoidance_wide",
+        "bias_meetings",
         "delta_u",
         "experience",
         "faults",
@@ -80,6 +81,7 @@ def test_bundled_files_are_listed_per_folder():
         "spatial_costs",
         "traffic_paper",
         "traffic_warehouse",
+        "wall_lines",
     ]
     assert bundled_toml("no_such_folder") == []
 

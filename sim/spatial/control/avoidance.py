@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from sim.spatial.control.orca_small import avoid_small
@@ -36,8 +38,31 @@ def steer_clear(parts: ControlParts, z, vel, h, pref, v_want, t: float, small: b
         return None
     fol = parts.follower
     args = (z, vel, h, rows, pref[rows], v_want[rows], steering, c.radius_m, c.v_max_mps)
+    p = parts.orca
+    stood = None if p.meet_all else t - f.t_progress_s >= p.bias_stand_s
     call = avoid_small if small else law.avoid
-    return call(*args, c.react_s, fol.to_obstacle, fol.lane_room, parts.orca)
+    points = obstacle_points(parts)
+    return call(*args, c.react_s, fol.to_obstacle, fol.lane_room, p, stood, points)
+
+
+def obstacle_points(parts: ControlParts):
+    """With ``wall_lines`` above 1, the obstacle points that give a robot its wall lines
+    (``PathFollower.obstacle_points`` within the reach of a line at the top speed); else None
+    (the nearest obstacle point only)."""
+    if parts.orca.wall_lines == 1:
+        return None
+    points = parts.follower.obstacle_points
+    return partial(points, reach_m=wall_reach_m(parts), count=parts.orca.wall_lines)
+
+
+def wall_reach_m(parts: ControlParts) -> float:
+    """How near an obstacle edge must be to give a robot a wall line (one could bind at the top
+    speed; the compiled kernel's ``commands.walls`` computes the same); 0 with ``wall_lines``
+    1 (the nearest obstacle point only)."""
+    p, c = parts.orca, parts.controller
+    if p.wall_lines == 1:
+        return 0.0
+    return c.radius_m + p.margin_m + p.wall_gap_m + c.v_max_mps * p.tau_obstacle_s
 
 
 def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
@@ -69,7 +94,7 @@ def wall_clear(parts: ControlParts, z, h, v, pref, orca, t: float):
     if not len(rows):
         return None
     args = (c.radius_m, c.v_max_mps, fol.to_obstacle, fol.lane_room, parts.orca)
-    return law.steer_walls(z, h, rows, v[rows], pref[rows], *args)
+    return law.steer_walls(z, h, rows, v[rows], pref[rows], *args, obstacle_points(parts))
 
 
 def near_walls(fol, z, rows, v, radius_m: float, p: law.OrcaLaw = law.DEFAULT):

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sim.spatial.control.arrival import arrive
+from sim.spatial.control.avoidance import wall_reach_m
 from sim.spatial.control.kernel.settings import avoid_law, drive_law
 from sim.spatial.control.kernel.views import (
     edges_of,
@@ -88,7 +89,7 @@ class CompiledControl:
             ("kernel_", period),
             ("drive_", tuple(law)),
             ("avoid_", tuple(avoid_law(p.orca))),
-            ("edges_", edges_of(p.follower)),
+            ("edges_", edges_of(p.follower, wall_reach_m(p))),
             ("shapes_", shapes_of(p.follower)),
             ("poses_", poses_for(m)),
             ("wishes_", wishes_for(m)),

@@ -63,6 +63,8 @@ def avoid_small(
     to_obstacle,
     lanes=None,
     p: OrcaLaw = DEFAULT,
+    stood=None,
+    points=None,
 ):
     """:func:`sim.spatial.law.orca.avoid` for a small team: the same commands bit for bit, most
     periods without numpy.
@@ -90,7 +92,7 @@ def avoid_small(
         if not len(keep):
             return None
         args = (z, vel, h, rows[keep], pref[keep], v_want[keep], steering, radius_m, v_max)
-        return orca.avoid(*args, dt_s, to_obstacle, lanes, p)
+        return orca.avoid(*args, dt_s, to_obstacle, lanes, p, stood, points)
     if not found:
         return None
     idx = np.zeros((len(found), k), dtype=np.intp)
@@ -99,9 +101,11 @@ def avoid_small(
         idx[b, : len(near)] = near
         mask[b, : len(near)] = True
     place = np.array([row for row, _ in found])
-    normal, offset = orca.pair_planes(z, vel, rows[place], idx, mask, steering, radius_m, dt_s, p)
-    args = (normal, offset, pref[place], radius_m, v_max, to_obstacle, lanes, p)
-    return orca.steer_rows(z, h, rows[place], *args)
+    rows, pref = rows[place], pref[place]
+    normal, offset = orca.pair_planes(z, vel, rows, idx, mask, steering, radius_m, dt_s, p)
+    allow = orca.meeting(z, vel, rows, idx, mask, pref, stood, p)
+    args = (normal, offset, pref, radius_m, v_max, to_obstacle, lanes, p, allow, points)
+    return orca.steer_rows(z, h, rows, *args)
 
 
 def binding(

@@ -120,6 +120,25 @@ class EdgeCells:
         self.e0 = np.append(e0, _FAR + 0j)  # the padding segment: a point far away
         self.d = np.append(e1 - e0, 0j)
 
+    def within(self, reach_m: float) -> np.ndarray:
+        """(cells, K) for each cell the indices of the segments that can come within
+        ``reach_m`` of a point in it (d(c, e) <= reach + half the cell's diagonal, plus a
+        micrometre), in ascending order, padded with -1: the candidates of a query for every
+        segment in reach (the kernel's ``obstacles.obstacle_points``)."""
+        side = 1.0 / self.inv
+        xs = self.lo.real + side * (np.arange(self.nx) + 0.5)
+        ys = self.lo.imag + side * (np.arange(self.ny) + 0.5)
+        centres = (xs[None, :] + 1j * ys[:, None]).ravel()
+        e0, d = self.e0[:-1], self.d[:-1]
+        parts = []
+        for a in range(0, len(centres), 256):
+            keep = _segment_distances(centres[a : a + 256], e0, e0 + d)
+            keep = keep <= reach_m + side * np.sqrt(0.5) + 1e-6
+            order = np.argsort(~keep, axis=1, kind="stable")
+            parts.append(np.where(np.take_along_axis(keep, order, axis=1), order, -1))
+        width = max(1, max(int((p >= 0).sum(axis=1).max()) for p in parts))
+        return np.concatenate([p[:, :width] for p in parts])
+
     def cell_of(self, z: np.ndarray) -> np.ndarray:
         """(k,) cell index of each point, -1 outside the grid."""
         fx = np.floor((z.real - self.lo.real) * self.inv)

@@ -362,6 +362,32 @@ class PathFollower:
         left = 1j * self.unit_c_[rows].conj()
         return left, side - self.free_[0, rows], self.free_[1, rows] - side
 
+    def obstacle_points(self, z: np.ndarray, reach_m: float, count: int) -> np.ndarray:
+        """(k, count) obstacle points of each point z (x + iy from it; inf + 0j where fewer):
+        the nearest point of each edge within ``reach_m``, taken in order of distance (ties: the
+        lower edge index) and kept unless it lies on or behind the line of a point kept before
+        it (n . (q - q_j) <= 1e-9 with n the unit vector from q_j to z: a corner of the face z
+        stands beside, the far side of an obstacle). The wall lines of ``[spatial.orca]
+        wall_lines``; the compiled kernel's ``obstacles.obstacle_points``, bit for bit."""
+        out = np.full((len(z), count), np.inf + 0j)
+        if not self.n_owner_ or not len(z):
+            return out
+        e0, d = self.edge0_, self.edge1_ - self.edge0_
+        t = ((z[:, None] - e0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
+        near = e0 + np.minimum(np.maximum(t, 0.0), 1.0) * d - z[:, None]
+        gap = np.abs(near)
+        for i in range(len(z)):
+            ahead = np.flatnonzero(gap[i] < reach_m)
+            kept: list[complex] = []
+            for k in ahead[np.argsort(gap[i, ahead], kind="stable")].tolist():
+                q = complex(near[i, k])
+                if all(((q - c) * (-c / max(abs(c), 1e-12)).conjugate()).real > 1e-9 for c in kept):
+                    kept.append(q)
+                    if len(kept) == count:
+                        break
+            out[i, : len(kept)] = kept
+        return out
+
     def to_obstacle(self, z: np.ndarray) -> np.ndarray:
         """From each point z (k,) to the nearest point of any obstacle or wall (x + iy).
 

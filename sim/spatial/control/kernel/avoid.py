@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
-from sim.spatial.control.kernel.halfplanes import BIG, agent_line, wall_lines
+from sim.spatial.control.kernel.halfplanes import BIG, agent_line, obstacle_line, wall_lines
 from sim.spatial.control.kernel.linprog import nearest_velocity
 
 WALL_LINES = 3  # the obstacle line and the two lane lines
@@ -65,14 +65,27 @@ def command(normal, offset, count, n_wall, pref, h, v_max, law, proj_n, proj_c):
 
 
 @njit(cache=True)
-def add_walls(ob, side_m, left, free0, free1, radius_m, law, normal, offset):
+def add_walls(ob, points, n_points, side_m, left, free0, free1, radius_m, law, normal, offset):
     """The wall and lane lines of a robot (:func:`halfplanes.wall_lines`) that can bind, into
-    the start of ``normal``, ``offset``; their count."""
+    the start of ``normal``, ``offset``; their count. The obstacle lines are those of
+    ``points[:n_points]`` (``obstacles.obstacle_points``), or with ``n_points`` < 0 the one of
+    ``ob``, the nearest obstacle point (``sim.spatial.law.orca.wall_lines``)."""
     wall_lines(ob, side_m, left, free0, free1, radius_m, law, normal, offset)
-    n = 0
-    for j in range(WALL_LINES):
-        if offset[j] > -BIG / 2:
-            normal[n], offset[n] = normal[j], offset[j]
+    if n_points < 0:
+        n = 0
+        for j in range(WALL_LINES):
+            if offset[j] > -BIG / 2:
+                normal[n], offset[n] = normal[j], offset[j]
+                n += 1
+        return n
+    lanes_n, lanes_c = (normal[1], normal[2]), (offset[1], offset[2])
+    r_air, inv = radius_m + law.margin_m + law.wall_gap_m, 1.0 / law.tau_obstacle_s
+    for s in range(n_points):
+        normal[s], offset[s] = obstacle_line(points[s], r_air, inv)
+    n = n_points
+    for s in range(2):
+        if lanes_c[s] > -BIG / 2:
+            normal[n], offset[n] = lanes_n[s], lanes_c[s]
             n += 1
     return n
 
@@ -99,6 +112,19 @@ def binds(normal, offset, start, count, plan):
     for j in range(start, count):
         worst = max(worst, offset[j] - along(plan, normal[j]))
     return worst > 1e-9
+
+
+@njit(cache=True)
+def meeting(i, z, vel, pref_i, near, count, cos_meet):
+    """True if a neighbour ``near[:count]`` of robot i lies within the meeting angle (cosine
+    ``cos_meet``) of i's preferred velocity relative to that neighbour's velocity
+    (``sim.spatial.law.orca.meeting``)."""
+    for s in range(count):
+        k = near[s]
+        rel, d = z[k] - z[i], pref_i - vel[k]
+        if (d * rel.conjugate()).real > cos_meet * (abs(d) * abs(rel)):
+            return True
+    return False
 
 
 @njit(cache=True)

@@ -22,12 +22,13 @@ from sim.spatial.control.kernel.avoid import (
     add_walls,
     binds,
     command,
+    meeting,
     robot_lines,
     with_bias,
 )
 from sim.spatial.control.kernel.drive import drifting, limit, pair_cap, wall_cap
 from sim.spatial.control.kernel.neighbours import build_grid, k_nearest, near_robots
-from sim.spatial.control.kernel.obstacles import to_obstacle
+from sim.spatial.control.kernel.obstacles import obstacle_points, to_obstacle
 from sim.spatial.control.kernel.steering import DRIVING, IDLE
 
 
@@ -41,9 +42,11 @@ class Work(NamedTuple):
         rows: robots whose speed is capped toward the nearest obstacle.
         blocker, near: the nearest robot in each one's way and its distance (-1, inf: none).
         idx, dist: (K,) a robot's neighbours; scratch: (m,) ints.
-        normal, offset, proj_n, proj_c: (K + 3,) lines of one robot's program.
+        normal, offset, proj_n, proj_c: (K + W + 2,) lines of one robot's program (W:
+            ``wall_lines``).
         seen_z, seen_m: where each robot's distance to the nearest obstacle was last
             measured, and that distance (-inf: never), kept between periods.
+        walls: (W,) a robot's obstacle points; points, gaps: (E,) scratch per obstacle edge.
     """
 
     steering: np.ndarray
@@ -62,14 +65,17 @@ class Work(NamedTuple):
     proj_c: np.ndarray
     seen_z: np.ndarray
     seen_m: np.ndarray
+    walls: np.ndarray
+    points: np.ndarray
+    gaps: np.ndarray
 
 
 @njit(cache=True)
-def new_work(m, max_neighbours, orca, push, blocker, near, seen_z, seen_m):
-    """The work buffers of one period for ``m`` robots (the results and the kept distances
-    given)."""
+def new_work(m, max_neighbours, law, n_edges, orca, push, blocker, near, seen_z, seen_m):
+    """The work buffers of one period for ``m`` robots among ``n_edges`` obstacle edges (the
+    results and the kept distances given; ``law``: ORCA's settings)."""
     k = max(max_neighbours, 1)
-    lines = k + WALL_LINES
+    lines = k + wall_room(law)
     return Work(
         np.zeros(m, dtype=np.bool_),
         np.zeros(m, dtype=np.bool_),
@@ -87,6 +93,42 @@ def new_work(m, max_neighbours, orca, push, blocker, near, seen_z, seen_m):
         np.zeros(lines),
         seen_z,
         seen_m,
+        np.zeros(law.wall_lines, dtype=np.complex128),
+        np.zeros(n_edges if law.wall_lines > 1 else 0, dtype=np.complex128),
+        np.zeros(n_edges if law.wall_lines > 1 else 0),
+    )
+
+
+@njit(cache=True)
+def wall_room(orca):
+    """Room for a robot's wall and lane lines at the front of its program."""
+    return WALL_LINES if orca.wall_lines == 1 else orca.wall_lines + 2
+
+
+@njit(cache=True)
+def walls(j, z, ob, fol, edges, law, orca, work):
+    """Robot j's wall and lane lines (``avoid.add_walls``) into ``work.normal``,
+    ``work.offset``: from ``ob``, its nearest obstacle point, or with ``wall_lines`` above 1
+    from its obstacle points in reach (``obstacles.obstacle_points``); their count."""
+    n_pts = -1
+    if orca.wall_lines > 1:
+        reach = law.radius_m + orca.margin_m + orca.wall_gap_m + law.v_max_mps * orca.tau_obstacle_s
+        n_pts = 0  # the nearest obstacle point out of reach: none is in reach
+        if abs(ob) < reach:
+            n_pts = obstacle_points(z, edges, reach, work.points, work.gaps, work.walls)
+    side, left = _lane(j, z, fol)
+    return add_walls(
+        ob,
+        work.walls,
+        n_pts,
+        side,
+        left,
+        fol.free[0, j],
+        fol.free[1, j],
+        law.radius_m,
+        orca,
+        work.normal,
+        work.offset,
     )
 
 
@@ -104,10 +146,11 @@ def _lane(j, z, fol):
 
 
 @njit(cache=True)
-def avoid_robots(grid, poses, fol, edges, law, orca, v, w, pref, work):
+def avoid_robots(grid, poses, fol, edges, law, orca, v, w, pref, still_s, work):
     """ORCA for the robots ``work.solo`` whose plan (v along the heading) breaks a half-plane of
     one of their ``max_neighbours`` nearest robots in range (``sim.spatial.law.orca.avoid``):
-    their (v, w) replaced, ``work.orca`` set."""
+    their (v, w) replaced, ``work.orca`` set. ``still_s``: (m,) time since each robot's last
+    progress, s (the bias's stand rule)."""
     z, h, vel = poses.z, poses.h, poses.vel
     m = z.shape[0]
     k_max = min(orca.max_neighbours, m - 1)
@@ -120,7 +163,7 @@ def avoid_robots(grid, poses, fol, edges, law, orca, v, w, pref, work):
         count = k_nearest(grid, z, i, reach, k_max, work.idx, work.dist, work.scratch)
         if count == 0:
             continue
-        start = WALL_LINES  # room for the wall lines in front
+        start = wall_room(orca)  # room for the wall lines in front
         robot_lines(
             i,
             z,
@@ -138,22 +181,13 @@ def avoid_robots(grid, poses, fol, edges, law, orca, v, w, pref, work):
         if not binds(work.normal, work.offset, start, start + count, v[i] * h[i]):
             continue
         ob = to_obstacle(z[i], edges)
-        side, left = _lane(i, z[i], fol)
-        n_wall = add_walls(
-            ob,
-            side,
-            left,
-            fol.free[0, i],
-            fol.free[1, i],
-            law.radius_m,
-            orca,
-            work.normal,
-            work.offset,
-        )
+        n_wall = walls(i, z[i], ob, fol, edges, law, orca, work)
         for s in range(count):  # the robot lines right after the walls
             work.normal[n_wall + s] = work.normal[start + s]
             work.offset[n_wall + s] = work.offset[start + s]
-        pref_i = with_bias(pref[i], ob, law.radius_m, orca)
+        allow = orca.meet_all or still_s[i] >= orca.bias_stand_s
+        allow = allow or meeting(i, z, vel, pref[i], work.idx, count, orca.cos_meet)
+        pref_i = with_bias(pref[i], ob, law.radius_m, orca) if allow else pref[i]
         v[i], w[i] = command(
             work.normal,
             work.offset,
@@ -290,18 +324,7 @@ def finish(
             work.seen_z[j], work.seen_m[j] = z[j], abs(ob)
             if not abs(ob) < reach:
                 continue
-            side, left = _lane(j, z[j], fol)
-            n_wall = add_walls(
-                ob,
-                side,
-                left,
-                fol.free[0, j],
-                fol.free[1, j],
-                law.radius_m,
-                orca,
-                work.normal,
-                work.offset,
-            )
+            n_wall = walls(j, z[j], ob, fol, edges, law, orca, work)
             if n_wall == 0 or not binds(work.normal, work.offset, 0, n_wall, v[j] * h[j]):
                 continue
             vj, wj = command(
@@ -336,6 +359,7 @@ def commands(
     state,
     yielding,
     backoff_until,
+    t_progress,
     poses,
     fol,
     edges,
@@ -366,7 +390,7 @@ def commands(
         side = max(side, orca_range_m(law, orca))
     grid = build_grid(poses.z, side)
     if avoid and steer_any:
-        avoid_robots(grid, poses, fol, edges, law, orca, v, w, pref, work)
+        avoid_robots(grid, poses, fol, edges, law, orca, v, w, pref, t - t_progress, work)
     capped, distance = False, np.inf
     if prox_due:
         capped, distance = proximity(

@@ -25,6 +25,8 @@ class Edges(NamedTuple):
         table: (cells, K) edge indices into ``cell_e0`` per cell (padding: the last index);
             (0, 0) without a grid.
         lo: the grid's lower-left corner, x + iy, m; inv: 1 / cell side, 1/m; nx, ny: cells.
+        reach: (cells, K) indices into ``e0`` of the edges each cell can have in the reach of
+            ``obstacle_points`` (padding -1); (0, 0) without one.
     """
 
     e0: np.ndarray
@@ -36,6 +38,7 @@ class Edges(NamedTuple):
     inv: float
     nx: int
     ny: int
+    reach: np.ndarray
 
 
 @njit(cache=True)
@@ -68,3 +71,46 @@ def to_obstacle(z, edges):
     for k in range(edges.e0.shape[0]):
         best, best_m = _nearer(z, edges.e0[k], edges.d[k], best, best_m)
     return best
+
+
+@njit(cache=True)
+def obstacle_points(z, edges, reach_m, points, gaps, out):
+    """The obstacle points of a robot at z that give it a wall line, into ``out`` (x + iy from
+    z, nearest first; ``sim.spatial.navigation.paths.PathFollower.obstacle_points``): the
+    nearest point of each edge within ``reach_m``, taken in order of distance (ties: the
+    lower index) and kept unless it lies on or behind the line of a point kept before it (a
+    corner of the face it stands beside, the far side of an obstacle), at most ``len(out)``.
+    ``points``, ``gaps``: (E,) scratch. Returns how many."""
+    n = 0
+    row = -1
+    if edges.reach.shape[0] > 0:
+        fx = math.floor((z.real - edges.lo.real) * edges.inv)
+        fy = math.floor((z.imag - edges.lo.imag) * edges.inv)
+        if 0 <= fx < edges.nx and 0 <= fy < edges.ny:
+            row = int(fy) * edges.nx + int(fx)
+    count = edges.e0.shape[0] if row < 0 else edges.reach.shape[1]
+    for s in range(count):  # every edge, or the cell's in ascending order: the same points
+        k = s if row < 0 else edges.reach[row, s]
+        if k < 0:
+            break
+        near, gap = _nearer(z, edges.e0[k], edges.d[k], 0j, reach_m)
+        if gap < reach_m:
+            points[n], gaps[n] = near, gap
+            n += 1
+    kept = 0
+    while kept < out.shape[0]:
+        best = -1
+        for s in range(n):  # the nearest left; the first of equal distances
+            if gaps[s] < np.inf and (best < 0 or gaps[s] < gaps[best]):
+                best = s
+        if best < 0:
+            break
+        q = points[best]
+        gaps[best] = np.inf
+        for j in range(kept):  # in front of every line kept: n_j . (q - q_j) > 0
+            if ((q - out[j]) * (-out[j] / max(abs(out[j]), 1e-12)).conjugate()).real <= 1e-9:
+                break
+        else:
+            out[kept] = q
+            kept += 1
+    return kept

@@ -89,7 +89,8 @@ def run_period(
     law, orca = DriveLaw(*drive_t), AvoidLaw(*avoid_t)
     v_out, w_out, q_out, blocker, near, push = out
     m = poses.z.shape[0]
-    work = new_work(m, orca.max_neighbours, kept[0], push, blocker, near, kept[1], kept[2])
+    k, e = orca.max_neighbours, edges.e0.shape[0]
+    work = new_work(m, k, orca, e, kept[0], push, blocker, near, kept[1], kept[2])
     passed, steering, stops, pasts = 0, False, 0, 0
     if stage == START:
         if read:
@@ -126,6 +127,7 @@ def run_period(
             fleet.state,
             fleet.yielding,
             fleet.backoff_until_s,
+            fleet.t_progress_s,
             poses,
             fol,
             edges,

@@ -60,12 +60,16 @@ class AvoidLaw(NamedTuple):
     lane_narrow_m: float
     lane_near_m: float
     max_neighbours: int
+    wall_lines: int
     back_share: float
     robot_slack_mps: float
     wall_slack_mps: float
     slack_shallow: float
     keep_right: complex
     bias_room_m: float
+    meet_all: bool
+    cos_meet: float
+    bias_stand_s: float
     heading_gain: float
     cos_turn: float
 
@@ -116,12 +120,16 @@ def avoid_law(p: OrcaLaw) -> AvoidLaw:
         lane_narrow_m=float(p.lane_narrow_m),
         lane_near_m=float(p.lane_near_m),
         max_neighbours=int(p.max_neighbours),
+        wall_lines=int(p.wall_lines),
         back_share=float(p.back_share),
         robot_slack_mps=float(p.robot_slack_mps),
         wall_slack_mps=float(p.wall_slack_mps),
         slack_shallow=float(p.slack_shallow),
         keep_right=complex(p.keep_right),
         bias_room_m=float(p.bias_room_m),
+        meet_all=bool(p.meet_all),
+        cos_meet=float(p.cos_meet),
+        bias_stand_s=float(p.bias_stand_s),
         heading_gain=float(p.heading_gain),
         cos_turn=float(p.cos_turn),
     )

@@ -81,15 +81,18 @@ def outputs_for(m: int) -> tuple:
     )
 
 
-def edges_of(follower) -> tuple:
-    """``obstacles.Edges`` of a ``PathFollower``: its obstacle edges and their grid (an empty
-    table without one)."""
+def edges_of(follower, reach_m: float = 0.0) -> tuple:
+    """``obstacles.Edges`` of a ``PathFollower``: its obstacle edges and their grid (empty
+    tables without one), with the edges each cell can have within ``reach_m`` (0: no such
+    table; ``EdgeCells.within``)."""
     e0 = np.ascontiguousarray(follower.edge0_, dtype=complex)
     d = np.ascontiguousarray(follower.edge1_ - follower.edge0_, dtype=complex)
     cells = follower.cells_
+    empty = np.zeros((0, 0), dtype=np.int64)
     if cells is None:
         none = np.zeros(0, dtype=complex)
-        return (e0, d, none, none, np.zeros((0, 0), dtype=np.int64), 0j, 0.0, 0, 0)
+        return (e0, d, none, none, empty, 0j, 0.0, 0, 0, empty)
+    reach = empty if reach_m <= 0.0 else cells.within(reach_m)
     return (
         e0,
         d,
@@ -100,6 +103,7 @@ def edges_of(follower) -> tuple:
         float(cells.inv),
         int(cells.nx),
         int(cells.ny),
+        np.ascontiguousarray(reach, dtype=np.int64),
     )
 
 

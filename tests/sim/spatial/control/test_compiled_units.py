@@ -143,6 +143,33 @@ def test_a_program_whose_walls_leave_nothing_breaks_every_line_least():
         checked += 1
 
 
+def test_the_meeting_rule_is_the_numpy_laws():
+    """The kernel's test whether a robot may take the right-hand bias in a meeting
+    (``avoid.meeting``) against the numpy law's (``orca.meeting``) on 2000 random robots with
+    one to four neighbours each, at three meeting angles: the same decision for every robot,
+    and both decisions taken at each angle."""
+    from sim.scenario import OrcaSpec
+    from sim.spatial.control.kernel.avoid import meeting
+
+    rng = np.random.default_rng(11)
+    for deg in (10.0, 30.0, 90.0):
+        p = law.OrcaLaw.of(OrcaSpec(bias_meet_deg=deg))
+        got, want = [], []
+        for _ in range(2000):
+            k = int(rng.integers(1, 5))
+            z = rng.uniform(-2, 2, k + 1) + 1j * rng.uniform(-2, 2, k + 1)
+            vel = rng.uniform(-1, 1, k + 1) + 1j * rng.uniform(-1, 1, k + 1)
+            pref = rng.uniform(-1, 1) + 1j * rng.uniform(-1, 1)
+            near = np.arange(1, k + 1)
+            idx, mask = near[None, :], np.ones((1, k), dtype=bool)
+            want.append(
+                bool(law.meeting(z, vel, np.array([0]), idx, mask, np.array([pref]), p=p)[0])
+            )
+            got.append(meeting(0, z, vel, pref, near, k, p.cos_meet))
+        assert got == want
+        assert 0 < sum(got) < len(got)
+
+
 def test_k_nearest_are_a_stable_sort_of_all_robots_within_range():
     rng = np.random.default_rng(1)
     for trial in range(40):
@@ -184,6 +211,33 @@ def test_nearest_obstacle_point_is_the_followers(boxes):
     want = fol.to_obstacle(z)
     got = np.array([to_obstacle(complex(p), edges) for p in z])
     np.testing.assert_array_equal(got, want)
+
+
+def test_obstacle_points_in_reach_are_the_followers():
+    """The kernel's obstacle points of a robot (``[spatial.orca] wall_lines`` above 1) against
+    ``PathFollower.obstacle_points`` at 2000 random points in and round a square of 40 random
+    boxes, at most 1 to 6 points within 1.2 m, from each grid cell's edges in reach and from
+    every edge: bit for bit, and some points get more than one."""
+    from sim.spatial.control.kernel.obstacles import obstacle_points
+
+    rng = np.random.default_rng(9)
+    fol = follower_with_boxes(rng, 40)
+    grid = Edges(*edges_of(fol, 1.2))  # each cell's edges in reach ...
+    assert 0 < grid.reach.shape[1] < len(grid.e0)
+    every = grid._replace(reach=np.zeros((0, 0), dtype=np.int64))  # ... or all of them
+    z = rng.uniform(-2.0, 42.0, 2000) + 1j * rng.uniform(-2.0, 42.0, 2000)
+    e = len(grid.e0)
+    several = 0
+    for count in (1, 2, 6):
+        want = fol.obstacle_points(z, 1.2, count)
+        for edges in (grid, every):
+            got = np.full((len(z), count), np.inf + 0j)
+            for i, p in enumerate(z):
+                buf = (np.zeros(e, complex), np.zeros(e), got[i])
+                got[i, obstacle_points(complex(p), edges, 1.2, *buf) :] = np.inf
+            np.testing.assert_array_equal(got, want)
+        several += int(np.isfinite(want[:, 1:]).any(axis=1).sum()) if count > 1 else 0
+    assert several > 50
 
 
 def test_free_widths_are_the_followers():

@@ -238,6 +238,52 @@ def test_the_right_hand_bias_holds_only_where_the_body_has_room_to_the_nearest_o
     assert turn(math.inf, metre) < -0.1  # no obstacle at all
 
 
+def test_the_bias_in_meetings_turns_a_head_on_or_stood_robot_and_no_other():
+    """With ``bias_meet_deg`` = 30 a robot at the origin preferring 1 m/s east takes the bias
+    when a neighbour lies within 30 degrees of its preferred velocity relative to that
+    neighbour's velocity: one 1 m east coming west (head on), or standing 1 m away at 29
+    degrees; not one at 31 degrees, one beside it, or one ahead driving east as fast (nothing
+    to meet: the relative velocity is zero). A robot ``stood`` takes it whatever its neighbours
+    do. With 180 the rule is off (None: every robot). Then the commands: the
+    robot allowed the bias turns right, the one not allowed keeps its heading."""
+    from sim.spatial.law import orca
+
+    p = orca.OrcaLaw.of(OrcaSpec(bias_meet_deg=30.0, bias_stand_s=1.0))
+    everywhere = orca.OrcaLaw.of(OrcaSpec(bias_meet_deg=180.0))
+    assert p.meet_all is False and everywhere.meet_all is True
+    deg = np.radians
+    others = [  # (position, velocity) of the one neighbour, and whether it is a meeting
+        (1.0 + 0j, -0.5 + 0j, True),
+        (np.exp(1j * deg(29.0)), 0j, True),
+        (np.exp(-1j * deg(29.0)), 0j, True),
+        (np.exp(1j * deg(31.0)), 0j, False),
+        (1j, 0j, False),
+        (1.0 + 0j, 1.0 + 0j, False),
+        (-1.0 + 0j, 0j, False),  # behind
+    ]
+    z = np.array([0j] + [o[0] for o in others])
+    vel = np.array([0j] + [o[1] for o in others])
+    n = len(others)
+    rows = np.zeros(n, dtype=int)  # robot 0 once against each neighbour alone
+    idx, mask = np.arange(1, n + 1)[:, None], np.ones((n, 1), dtype=bool)
+    pref = np.full(n, 1.0 + 0j)
+    allow = orca.meeting(z, vel, rows, idx, mask, pref, None, p)
+    assert allow.tolist() == [o[2] for o in others]
+    stood = np.zeros(n + 1, dtype=bool)
+    stood[0] = True
+    assert orca.meeting(z, vel, rows, idx, mask, pref, stood, p).all()
+    assert not orca.meeting(z, vel, rows, idx, ~mask, pref, None, p).any()  # no real neighbour
+    assert orca.meeting(z, vel, rows, idx, mask, pref, stood, everywhere) is None
+
+    normal, offset = np.array([[-1.0 + 0j]]), np.array([[-0.2]])  # u.x <= 0.2
+    one, h = np.array([0]), np.array([1.0 + 0j])
+    free = lambda pts: np.full(len(pts), np.inf + 0j)  # noqa: E731
+    args = (np.array([0j]), h, one, normal, offset, np.array([1.0 + 0j]), 0.25, 1.5, free)
+    turned = orca.steer_rows(*args, p=p, allow=np.array([True]))[2][0]
+    straight = orca.steer_rows(*args, p=p, allow=np.array([False]))[2][0]
+    assert turned < -0.1 and straight == 0.0
+
+
 def test_the_wall_program_never_backs_a_robot_up():
     """The wall program has no robot half-planes, so it must not reverse: a robot backing off
     a wall drove into the robot behind it (the robot-robot impacts of paper_spatial, robots

@@ -433,3 +433,28 @@ def test_lane_room_is_the_room_left_within_the_free_width_of_the_segment():
     assert room_r[0] == pytest.approx(f.free_m[0, 1, 1] + 0.1)
     assert room_l[0] == pytest.approx(f.free_m[0, 1, 0] - 0.1)
     assert f.free_m[0, 1, 1] == pytest.approx(0.4 - R)
+
+
+def test_obstacle_points_keep_every_face_in_reach_and_no_corner_of_a_face_beside():
+    """``PathFollower.obstacle_points`` (the wall lines of ``[spatial.orca] wall_lines``) in a
+    room 20 x 10 m with a 4 x 1 m box at (8, 4):
+
+    - beside the box's long face near its end: the face's foot only (the corner it leads to is
+      on the face's line; the box's far faces behind it);
+    - in the room's corner: both walls;
+    - in the 1 m gap between the box and a second box above it: both faces;
+    - off the box's corner, beyond both faces: the corner, once (two edges give it);
+    - in the open: nothing; and never more than ``count``, nearest first."""
+    box = ((8.0, 4.0), (12.0, 4.0), (12.0, 5.0), (8.0, 5.0))
+    above = ((8.0, 6.0), (12.0, 6.0), (12.0, 7.0), (8.0, 7.0))
+    f = PathFollower(1, 1.5, [box, above, *WALLS], R)
+    z = np.array([11.8 + 3.55j, 0.4 + 0.5j, 10.0 + 5.5j, 12.3 + 3.7j, 5.0 + 2.0j])
+    got = f.obstacle_points(z, 1.2, 4)
+    finite = np.isfinite(got)
+    assert finite.sum(axis=1).tolist() == [1, 2, 2, 1, 0]
+    np.testing.assert_allclose(got[0, 0], 0.45j, atol=1e-12)  # the face's foot, not (12, 4)
+    np.testing.assert_allclose(sorted(got[1, :2], key=abs), [-0.4 + 0j, -0.5j], atol=1e-12)
+    np.testing.assert_allclose(sorted(got[2, :2], key=lambda q: q.imag), [-0.5j, 0.5j], atol=1e-12)
+    np.testing.assert_allclose(got[3, 0], (12.0 + 4.0j) - z[3], atol=1e-12)
+    assert np.array_equal(got[:4, 0], f.to_obstacle(z[:4]))  # the nearest point first
+    assert np.isfinite(f.obstacle_points(z[1:2], 1.2, 1)).sum() == 1

@@ -94,16 +94,17 @@ def to_next_period(world: PymunkWorld) -> None:
     world.goal_s_ = world.clock.steps * world.dt_s
 
 
-@pytest.mark.parametrize("avoidance", ["none", "orca", "orca-everywhere-nearest"])
+@pytest.mark.parametrize("avoidance", ["none", "orca", "orca-everywhere", "orca-nearest"])
 def test_both_controls_command_the_same_wheels_from_the_same_state(avoidance):
     """Period after period of a crowded run, both implementations get a copy of the same state
     and must command the same wheels, see the same robot in the way and start the same work;
     with ORCA too (its commands, the turn-first wheel limit, site queues: by default its
-    right-hand bias in meetings and a wall line per obstacle edge in reach; and with the bias
-    everywhere and the nearest obstacle point alone)."""
+    right-hand bias in meetings and a wall line per obstacle edge in reach; also with the bias
+    everywhere, and with the nearest obstacle point alone)."""
     sc = crowd_scenario(avoidance.split("-")[0])
-    if avoidance.endswith("nearest"):
-        orca = OrcaSpec(bias_meet_deg=180.0, wall_lines=1)
+    more = {"everywhere": OrcaSpec(bias_meet_deg=180.0), "nearest": OrcaSpec(wall_lines=1)}
+    orca = more.get(avoidance.split("-")[-1])
+    if orca is not None:
         sc = dataclasses.replace(sc, spatial=dataclasses.replace(sc.spatial, orca=orca))
     world = PymunkWorld(sc, control="scalar")  # exact free widths and the lists: both can run
     k = [0, 1, 4]

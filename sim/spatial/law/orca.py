@@ -35,9 +35,8 @@ Symmetry: when many preferred velocities point at one spot (robots swapping plac
 circle) plain ORCA slows them all to a standstill there. A robot whose plan leaves a half-plane
 prefers its velocity turned ``right_bias_deg`` to the right, a right-hand traffic rule that makes
 every pair pass the same way round, so the crowd turns as a roundabout instead of jamming
-(``tests/behaviour/test_orca.py``: 20 robots swap a 5 m circle in 16.7 s, 17.8 s with the compiled
-period, IR-SIM RVO 23.1 s, without
-a contact).
+(``tests/behaviour/test_orca.py``: 20 robots swap a 5 m circle in 16.7 s, 17.8 s with the
+compiled period, IR-SIM RVO 23.1 s, without a contact).
 ``bias_room_m`` limits it to robots whose body has more room than that to the nearest obstacle;
 the default, ``-inf``, biases every such robot. 1.0 m was measured (``docs/avoidance.md``,
 "Probes measured and not merged"): faster in both scenarios, but head-on pairs in

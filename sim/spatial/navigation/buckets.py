@@ -104,19 +104,12 @@ class EdgeCells:
         side = max(float(np.sqrt(max(span.real * span.imag, 1e-12) / cells)), 0.25)
         self.nx = max(1, int(np.ceil(span.real / side)))
         self.ny = max(1, int(np.ceil(span.imag / side)))
-        self.lo, self.inv = lo, 1.0 / side
-        xs = lo.real + side * (np.arange(self.nx) + 0.5)
-        ys = lo.imag + side * (np.arange(self.ny) + 0.5)
-        centres = (xs[None, :] + 1j * ys[:, None]).ravel()  # index = iy * nx + ix
-        n = len(e0)
-        parts = []
-        for a in range(0, len(centres), 256):  # bounded memory: 256 cells x E at a time
-            dist = _segment_distances(centres[a : a + 256], e0, e1)
-            keep = dist <= dist.min(axis=1, keepdims=True) + np.sqrt(2.0) * side + 1e-6
-            order = np.argsort(~keep, axis=1, kind="stable")  # kept ones first, ascending
-            parts.append(np.where(np.take_along_axis(keep, order, axis=1), order, n))
-        width = max(int((p < n).sum(axis=1).max()) for p in parts)
-        self.table = np.concatenate([p[:, :width] for p in parts])  # (cells, K), padding n
+        self.lo, self.inv, self.side = lo, 1.0 / side, side
+
+        def near(dist: np.ndarray) -> np.ndarray:
+            return dist <= dist.min(axis=1, keepdims=True) + np.sqrt(2.0) * side + 1e-6
+
+        self.table = self._lists(e0, e1, near, len(e0))  # (cells, K), padding n
         self.e0 = np.append(e0, _FAR + 0j)  # the padding segment: a point far away
         self.d = np.append(e1 - e0, 0j)
 
@@ -125,18 +118,24 @@ class EdgeCells:
         ``reach_m`` of a point in it (d(c, e) <= reach + half the cell's diagonal, plus a
         micrometre), in ascending order, padded with -1: the candidates of a query for every
         segment in reach (the kernel's ``obstacles.obstacle_points``)."""
-        side = 1.0 / self.inv
+        bound = reach_m + np.sqrt(0.5) * self.side + 1e-6
+        e0, d = self.e0[:-1], self.d[:-1]
+        return self._lists(e0, e0 + d, lambda dist: dist <= bound, -1)
+
+    def _lists(self, e0: np.ndarray, e1: np.ndarray, keep, pad: int) -> np.ndarray:
+        """(cells, K): for each cell the indices of the segments ``keep`` (a map from the (P, E)
+        distances of cell centres to segments to a bool mask) keeps, ascending, padded with
+        ``pad``; K the most any cell keeps (at least 1)."""
+        side = self.side
         xs = self.lo.real + side * (np.arange(self.nx) + 0.5)
         ys = self.lo.imag + side * (np.arange(self.ny) + 0.5)
-        centres = (xs[None, :] + 1j * ys[:, None]).ravel()
-        e0, d = self.e0[:-1], self.d[:-1]
+        centres = (xs[None, :] + 1j * ys[:, None]).ravel()  # index = iy * nx + ix
         parts = []
-        for a in range(0, len(centres), 256):
-            keep = _segment_distances(centres[a : a + 256], e0, e0 + d)
-            keep = keep <= reach_m + side * np.sqrt(0.5) + 1e-6
-            order = np.argsort(~keep, axis=1, kind="stable")
-            parts.append(np.where(np.take_along_axis(keep, order, axis=1), order, -1))
-        width = max(1, max(int((p >= 0).sum(axis=1).max()) for p in parts))
+        for a in range(0, len(centres), 256):  # bounded memory: 256 cells x E at a time
+            kept = keep(_segment_distances(centres[a : a + 256], e0, e1))
+            order = np.argsort(~kept, axis=1, kind="stable")  # kept ones first, ascending
+            parts.append(np.where(np.take_along_axis(kept, order, axis=1), order, pad))
+        width = max(1, max(int((p != pad).sum(axis=1).max()) for p in parts))
         return np.concatenate([p[:, :width] for p in parts])
 
     def cell_of(self, z: np.ndarray) -> np.ndarray:

@@ -56,18 +56,26 @@ def _nearer(z, e0, dk, best, best_m):
 
 
 @njit(cache=True)
+def _cell(z, edges):
+    """The grid cell of z (row of the tables), -1 outside the grid."""
+    fx = math.floor((z.real - edges.lo.real) * edges.inv)
+    fy = math.floor((z.imag - edges.lo.imag) * edges.inv)
+    if 0 <= fx < edges.nx and 0 <= fy < edges.ny:
+        return int(fy) * edges.nx + int(fx)
+    return -1
+
+
+@njit(cache=True)
 def to_obstacle(z, edges):
     """From z (x + iy, m) to the nearest point of any obstacle edge (x + iy); inf without
     obstacles. Ties: the first edge."""
     best = complex(np.inf, 0.0)
     best_m = np.inf
-    if edges.table.shape[0] > 0:
-        fx = math.floor((z.real - edges.lo.real) * edges.inv)
-        fy = math.floor((z.imag - edges.lo.imag) * edges.inv)
-        if 0 <= fx < edges.nx and 0 <= fy < edges.ny:
-            for k in edges.table[int(fy) * edges.nx + int(fx)]:
-                best, best_m = _nearer(z, edges.cell_e0[k], edges.cell_d[k], best, best_m)
-            return best
+    row = _cell(z, edges) if edges.table.shape[0] > 0 else -1
+    if row >= 0:
+        for k in edges.table[row]:
+            best, best_m = _nearer(z, edges.cell_e0[k], edges.cell_d[k], best, best_m)
+        return best
     for k in range(edges.e0.shape[0]):
         best, best_m = _nearer(z, edges.e0[k], edges.d[k], best, best_m)
     return best
@@ -82,12 +90,7 @@ def obstacle_points(z, edges, reach_m, points, gaps, out):
     corner of the face it stands beside, the far side of an obstacle), at most ``len(out)``.
     ``points``, ``gaps``: (E,) scratch. Returns how many."""
     n = 0
-    row = -1
-    if edges.reach.shape[0] > 0:
-        fx = math.floor((z.real - edges.lo.real) * edges.inv)
-        fy = math.floor((z.imag - edges.lo.imag) * edges.inv)
-        if 0 <= fx < edges.nx and 0 <= fy < edges.ny:
-            row = int(fy) * edges.nx + int(fx)
+    row = _cell(z, edges) if edges.reach.shape[0] > 0 else -1
     count = edges.e0.shape[0] if row < 0 else edges.reach.shape[1]
     for s in range(count):  # every edge, or the cell's in ascending order: the same points
         k = s if row < 0 else edges.reach[row, s]

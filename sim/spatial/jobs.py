@@ -428,16 +428,17 @@ class Jobs:
 
     def ask_idle(self, j: int, t: float) -> bool:
         """Collision avoidance on, robot j stuck: the nearest idle robot within ``stalls.near_m``
-        (not broken) steps off j's way (:meth:`step_off`), and j waits one stuck timeout for it,
-        spending a try. The speed caps ask only an idle robot straight ahead (:meth:`make_way`);
-        ORCA stops a robot for one beside it too: an idle robot against the shelf at the mouth
-        of a single-lane gap, off to one side, held a robot in the gap until its task failed
-        (warehouse, QL-MRTA, seed 4, with ORCA's 10 neighbours). One already stepping aside or
-        driving out of a site is asked too if it stands (commanded below ``stalls.still_mps``): one
-        that drove out through the service slot another robot was sent to stood there, face
-        to face with that robot, until the other's task failed (warehouse, QL-MRTA, seed 0, at
-        b773752). False, and nothing changes, if no idle robot is near, j has used its tries
-        or no step is free."""
+        (not broken) that has a step off j's way (:meth:`step_off`) takes it, and j waits one stuck
+        timeout for it, spending a try. Two idle robots pulled over to the two walls of a 2 m aisle,
+        a metre apart, leave no lane between them; the nearer may have no free step while the other
+        has. The speed caps ask only an idle robot straight ahead (:meth:`make_way`); ORCA stops a
+        robot for one beside it too: an idle robot against the shelf at the mouth of a single-lane
+        gap, off to one side, held a robot in the gap until its task failed (warehouse, QL-MRTA,
+        seed 4, with ORCA's 10 neighbours). One already stepping aside or driving out of a site is
+        asked too if it stands (commanded below ``stalls.still_mps``): one that drove out through
+        the service slot another robot was sent to stood there, face to face with that robot, until
+        the other's task failed (warehouse, QL-MRTA, seed 0, at b773752). False, and nothing
+        changes, if no idle robot is near, j has used its tries or no step is free."""
         f = self.fleet
         if f.recoveries[j] >= self.spatial.max_recoveries:
             return False
@@ -447,11 +448,13 @@ class Jobs:
         )  # stepping aside, but not moving
         idle = (f.state == IDLE) & (~f.yielding | standing) & ~self.broken
         dist = np.where(idle, np.abs(z - z[j]), np.inf)
-        k = int(dist.argmin())
-        if not dist[k] < self.spatial.stalls.near_m:
-            return False
-        path = self.step_off(k, j, z)
-        if not len(path):
+        for k in np.argsort(dist, kind="stable").tolist():
+            if not dist[k] < self.spatial.stalls.near_m:
+                return False
+            path = self.step_off(k, j, z)
+            if len(path):
+                break
+        else:
             return False
         self.follower.set_paths([k], [path])
         f.yielding[k], f.yield_until_s[k] = True, t + self.stepping.timeout_s
@@ -464,16 +467,18 @@ class Jobs:
     def step_off(self, k: int, j: int, z: np.ndarray, way: np.ndarray | None = None) -> np.ndarray:
         """A short path (collision avoidance on) that takes idle robot k off the way of robot j:
         ``make_way.step_m``, else twice that, to the side of j's way away from j, the other side or
-        straight on along it (j's next path segment; its heading without a path), to the first
+        straight on along it (j's next path segment; its heading without a path); failing all six,
+        the same two lengths at 45 degrees off j's way toward k's side and the other, at 135 degrees
+        toward each, then straight back (in an aisle, along the wall k stands against); to the first
         end point that is free, half a step clear of the other robots, at least two radii and
         ``jams.lane_gap_m`` off the rest of j's path, and reached by a planned path at most twice
         the step long that keeps two radii from j (a robot closer to a wall than the planner's free
-        space can step off it too). A step along j's way, or into a gap j's path runs through,
-        only moved the jam: in the warehouse (market, seed 6) an idle robot ahead of a driving
-        one was stepped into the 1 m cross-aisle gap that the driving robot's way ran through,
-        and the driving robot stood at the gap's mouth until its task failed. (0, 2) if no step
-        will do. ``way``: j's way ahead (x + iy) if not its path (a robot holding before a
-        passage: its way through it)."""
+        space can step off it too). A step along j's way, or into a gap j's path runs through, only
+        moved the jam: in the warehouse (market, seed 6) an idle robot ahead of a driving one was
+        stepped into the 1 m cross-aisle gap that the driving robot's way ran through, and the
+        driving robot stood at the gap's mouth until its task failed. (0, 2) if no step will do.
+        ``way``: j's way ahead (x + iy) if not its path (a robot holding before a passage: its way
+        through it)."""
         r = self.controller.radius_m
         fol = self.follower
         if way is None:
@@ -488,24 +493,27 @@ class Jobs:
         side = 1.0 if ((z[k] - z[j]) * lateral.conj()).real >= 0.0 else -1.0
         close = np.abs(z - z[k]) < 3.0 * self.stepping.step_m
         close[k] = False
-        for step in (self.stepping.step_m, 2.0 * self.stepping.step_m):
-            for toward in (side * lateral, -side * lateral, travel):
-                end = z[k] + step * toward
-                if not self.planner.free_one(end.real, end.imag):
-                    continue
-                if close.any() and np.abs(z[close] - end).min() < 0.5 * self.stepping.step_m:
-                    continue
-                if _to_polyline(np.array([end]), way)[0] < 2.0 * r + self.spatial.jams.lane_gap_m:
-                    continue
-                path = self.planner.path((z[k].real, z[k].imag), (end.real, end.imag))
-                if not len(path):
-                    continue
-                pts = path @ np.array([1.0, 1j])
-                if np.abs(np.diff(pts)).sum() > 2.0 * step:
-                    continue
-                if _to_polyline(np.array([z[j]]), pts)[0] < 2.0 * r:
-                    continue
-                return path
+        steps = (self.stepping.step_m, 2.0 * self.stepping.step_m)
+        half = np.exp(0.25j * np.pi * side)  # 45 degrees toward k's side of j's way
+        first = (side * lateral, -side * lateral, travel)
+        then = (travel * half, travel / half, -travel / half, -travel * half, -travel)
+        for step, toward in [(step, d) for group in (first, then) for step in steps for d in group]:
+            end = z[k] + step * toward
+            if not self.planner.free_one(end.real, end.imag):
+                continue
+            if close.any() and np.abs(z[close] - end).min() < 0.5 * self.stepping.step_m:
+                continue
+            if _to_polyline(np.array([end]), way)[0] < 2.0 * r + self.spatial.jams.lane_gap_m:
+                continue
+            path = self.planner.path((z[k].real, z[k].imag), (end.real, end.imag))
+            if not len(path):
+                continue
+            pts = path @ np.array([1.0, 1j])
+            if np.abs(np.diff(pts)).sum() > 2.0 * step:
+                continue
+            if _to_polyline(np.array([z[j]]), pts)[0] < 2.0 * r:
+                continue
+            return path
         return np.zeros((0, 2))
 
     def clear_way(self, k: int, j: int, way: np.ndarray, t: float) -> bool:

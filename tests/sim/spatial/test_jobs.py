@@ -25,6 +25,7 @@ from sim.spatial.world import PymunkWorld
 from sim.states import DRIVING, IDLE, WORKING
 from sim.world import Completion
 from tests.worlds import (
+    AISLE,
     GAP,
     ROOM,
     SHELF,
@@ -754,10 +755,10 @@ def test_abandon_gives_up_the_task_where_the_robot_stands():
     assert (f.task[0], f.state[0]) == (41, DRIVING)
 
 
-def step(starts, k: int, way=None, heading: float = 0.0):
+def step(starts, k: int, way=None, heading: float = 0.0, obstacles=()):
     """Where idle robot k steps to, off the way of robot 0 (at starts[0], along ``way`` (x + iy
     points from it), or with no path, facing ``heading``); None if nowhere."""
-    w = orca_world(starts)
+    w = orca_world(starts, obstacles=obstacles)
     if way is not None:
         set_way(w, 0, way)
     w.motors.bodies[0].angle = heading
@@ -810,6 +811,50 @@ def test_with_both_one_metre_ends_taken_it_steps_two_metres():
 def test_a_robot_right_against_the_stuck_one_has_no_step_that_keeps_clear_of_it():
     """Robot 1 stands 0.45 m ahead of robot 0: every way off passes closer than two radii."""
     assert step([(8.0, 5.0), (8.45, 5.0)], 1, [8 + 5j, 14 + 5j]) is None
+
+
+def test_in_an_aisle_idle_robots_at_both_walls_step_along_them_out_of_the_way():
+    """The warehouse jam (market, seed 12), 10 m lower: robot 0 in the 2 m aisle (y 4..6)
+    drives up-left past robot 2, pulled over to the top wall, and then left along the aisle;
+    robot 1, pulled over to the bottom wall, stands half a metre from it, ahead. No step to
+    either side of robot 0's way or along it is free for either robot (a wall, the other
+    robot, or the way itself). Robot 1 steps 1 m at 45 degrees off the way on its own side
+    (the way leaves at 134.5 degrees: almost straight left, along its wall). Robot 2, on the
+    other side of the way, finds 45 degrees on its side (up) in the wall and 45 degrees on the
+    other (left) on the way: it steps at 135 degrees on its side, right along the top wall."""
+    starts = [(13.36, 4.93), (12.9, 4.56), (13.28, 5.53)]
+    way = [13.36 + 4.93j, 12.75 + 5.55j, 6 + 5j]
+    travel = (way[1] - way[0]) / abs(way[1] - way[0])
+    turn = np.exp(0.25j * np.pi)
+    assert abs(travel * turn + 1) < 0.01 and abs(-travel * turn - 1) < 0.01
+    want1, want2 = 12.9 + 4.56j + travel * turn, 13.28 + 5.53j - travel * turn
+    assert step(starts, 1, way, obstacles=AISLE) == pytest.approx(want1, abs=1e-9)
+    assert step(starts, 2, way, obstacles=AISLE) == pytest.approx(want2, abs=1e-9)
+
+
+def test_with_the_sides_and_the_way_closed_it_steps_straight_back():
+    """Robot 0 stands at (8, 5) in the 2 m aisle, its way +x along the middle; idle robot 1
+    stands 1.2 m behind it on the same line. Both sides and all four diagonals end in a wall
+    (the planner keeps a radius and its clearance from them), straight on ends against robot
+    0 or on its way: it steps 1 m straight back."""
+    starts = [(8.0, 5.0), (6.8, 5.0)]
+    assert step(starts, 1, [8 + 5j, 14 + 5j], obstacles=AISLE) == 5.8 + 5j
+
+
+def test_a_stuck_robot_asks_the_nearest_idle_robot_that_has_a_step():
+    """Robot 1 stands right against stuck robot 0 (every way off passes within two radii):
+    it has no step. Robot 2, farther but within 1.2 m, has one: it steps aside, and robot 0
+    spends a try waiting for it; robot 1 is left as it was."""
+    w = orca_world([(8.0, 5.0), (8.45, 5.0), (8.9, 5.7)])
+    f = w.fleet
+    set_way(w, 0, [8 + 5j, 14 + 5j])
+    t = at(w, 30.0)
+    assert not len(w.jobs.step_off(1, 0, f.last_z_m))
+    assert w.jobs.ask_idle(0, t)
+    assert f.yielding.tolist() == [False, False, True]
+    assert waypoints(w, 2)[-1] == 8.9 + 6.7j  # 1 m to its side of the way
+    assert f.recoveries[0] == 1 and f.t_progress_s[0] == t
+    assert w.jobs.fired["ask_idle"] == 1
 
 
 def test_to_polyline_measures_to_the_nearest_point_of_each_segment():

@@ -472,13 +472,15 @@ class Jobs:
         toward each, then straight back (in an aisle, along the wall k stands against); to the first
         end point that is free, half a step clear of the other robots, at least two radii and
         ``jams.lane_gap_m`` off the rest of j's path, and reached by a planned path at most twice
-        the step long that keeps two radii from j (a robot closer to a wall than the planner's free
-        space can step off it too). A step along j's way, or into a gap j's path runs through, only
-        moved the jam: in the warehouse (market, seed 6) an idle robot ahead of a driving one was
-        stepped into the 1 m cross-aisle gap that the driving robot's way ran through, and the
-        driving robot stood at the gap's mouth until its task failed. (0, 2) if no step will do.
-        ``way``: j's way ahead (x + iy) if not its path (a robot holding before a passage: its way
-        through it)."""
+        the step long that keeps from j two radii and ``lane_gap_m`` (or as far as k stands, if
+        nearer) less half ``lane_gap_m``, and never less than two radii (a robot closer to a wall
+        than the planner's free space can step off it too). A way past j at two radii and 2 cm left
+        both standing (warehouse_wide, QL-MRTA, seed 25). A step along j's way, or into a gap j's
+        path runs through, only moved the jam: in the warehouse (market, seed 6) an idle robot ahead
+        of a driving one was stepped into the 1 m cross-aisle gap that the driving robot's way ran
+        through, and the driving robot stood at the gap's mouth until its task failed. (0, 2) if no
+        step will do. ``way``: j's way ahead (x + iy) if not its path (a robot holding before a
+        passage: its way through it)."""
         r = self.controller.radius_m
         fol = self.follower
         if way is None:
@@ -493,6 +495,11 @@ class Jobs:
         side = 1.0 if ((z[k] - z[j]) * lateral.conj()).real >= 0.0 else -1.0
         close = np.abs(z - z[k]) < 3.0 * self.stepping.step_m
         close[k] = False
+        # the way there keeps two radii and lane_gap_m from j (or as far as k stands, if
+        # nearer), less half lane_gap_m, and never less than two radii
+        gap = self.spatial.jams.lane_gap_m
+        lane = 2.0 * r + gap
+        keep = max(2.0 * r, min(lane, float(abs(z[k] - z[j]))) - 0.5 * gap)
         steps = (self.stepping.step_m, 2.0 * self.stepping.step_m)
         half = np.exp(0.25j * np.pi * side)  # 45 degrees toward k's side of j's way
         first = (side * lateral, -side * lateral, travel)
@@ -503,7 +510,7 @@ class Jobs:
                 continue
             if close.any() and np.abs(z[close] - end).min() < 0.5 * self.stepping.step_m:
                 continue
-            if _to_polyline(np.array([end]), way)[0] < 2.0 * r + self.spatial.jams.lane_gap_m:
+            if _to_polyline(np.array([end]), way)[0] < lane:
                 continue
             path = self.planner.path((z[k].real, z[k].imag), (end.real, end.imag))
             if not len(path):
@@ -511,7 +518,7 @@ class Jobs:
             pts = path @ np.array([1.0, 1j])
             if np.abs(np.diff(pts)).sum() > 2.0 * step:
                 continue
-            if _to_polyline(np.array([z[j]]), pts)[0] < 2.0 * r:
+            if _to_polyline(np.array([z[j]]), pts)[0] < keep:
                 continue
             return path
         return np.zeros((0, 2))

@@ -18,7 +18,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from sim.scenario import MakeWaySpec, RecoverySpec
+from sim.scenario import JamSpec, MakeWaySpec, RecoverySpec
 from sim.spatial.jobs import Jobs, _to_polyline
 from sim.spatial.navigation.planning import GridPlanner
 from sim.spatial.world import PymunkWorld
@@ -839,6 +839,27 @@ def test_with_the_sides_and_the_way_closed_it_steps_straight_back():
     0 or on its way: it steps 1 m straight back."""
     starts = [(8.0, 5.0), (6.8, 5.0)]
     assert step(starts, 1, [8 + 5j, 14 + 5j], obstacles=AISLE) == 5.8 + 5j
+
+
+@pytest.mark.parametrize(("lane_gap", "want"), [(0.1, 4 + 5.75j), (0.0, None)])
+def test_the_way_off_does_not_pass_closer_to_the_stuck_robot_than_the_lane(lane_gap, want):
+    """Robot 1 stands 0.75 m left of robot 0's way along +x (robot 0 at (5, 5)); robots stand
+    on its ends straight up, ahead and 45 degrees up either way. The first free end left is
+    1 m down-left, 0.71 m off the way, but the straight way there passes robot 0 at 0.53 m:
+    with ``lane_gap_m`` 0.1 the way must keep 0.55 m (two radii and the gap, less half the
+    gap), so it steps straight back, 1 m left. With no gap two radii are enough and it takes
+    the diagonal (warehouse_wide, QL-MRTA, seed 25: an idle robot stepped past a stuck one
+    at 0.52 m, and neither moved until the task failed)."""
+    r2 = np.sqrt(0.5)
+    blocks = [(5.0, 6.75), (6.0, 5.75), (5.0, 7.75), (7.0, 5.75), (5 + r2, 5.75 + r2)]
+    starts = [(5.0, 5.0), (5.0, 5.75), *blocks, (5 - r2, 5.75 + r2)]
+    w = orca_world(starts, jams=JamSpec(lane_gap_m=lane_gap))
+    set_way(w, 0, [5 + 5j, 10 + 5j])
+    path = w.jobs.step_off(1, 0, w.fleet.last_z_m) @ np.array([1.0, 1j])
+    diagonal = 5 + 5.75j + np.exp(-0.75j * np.pi)
+    passing = _to_polyline(np.array([5 + 5j]), np.array([5 + 5.75j, diagonal]))[0]
+    assert passing == pytest.approx(0.75 * r2, abs=1e-12)  # 0.53 m
+    assert path[-1] == pytest.approx(diagonal if want is None else want, abs=1e-9)
 
 
 def test_a_stuck_robot_asks_the_nearest_idle_robot_that_has_a_step():

@@ -844,7 +844,8 @@ def test_with_the_sides_and_the_way_closed_it_steps_straight_back():
 @pytest.mark.parametrize(("lane_gap", "want"), [(0.1, 4 + 5.75j), (0.0, None)])
 def test_the_way_off_does_not_pass_closer_to_the_stuck_robot_than_the_lane(lane_gap, want):
     """Robot 1 stands 0.75 m left of robot 0's way along +x (robot 0 at (5, 5)); robots stand
-    on its ends straight up, ahead and 45 degrees up either way. The first free end left is
+    on its ends 1 and 2 m straight up and ahead, and 1 m at 45 degrees up either way (straight
+    down runs through robot 0, 45 degrees down-right ends on the way). The first free end is
     1 m down-left, 0.71 m off the way, but the straight way there passes robot 0 at 0.53 m:
     with ``lane_gap_m`` 0.1 the way must keep 0.55 m (two radii and the gap, less half the
     gap), so it steps straight back, 1 m left. With no gap two radii are enough and it takes

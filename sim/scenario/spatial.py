@@ -282,6 +282,13 @@ class RecoverySpec(_Section):
     backoff_s: float = _share(
         1.5, "a stuck robot reverses on a random arc this long, then replans", 60.0, "s"
     )
+    avoid_turn_radps: float = _share(
+        1.0,
+        "with avoidance on, the back-off arc turns at most this fast (the speed caps take a"
+        " robot's heading as held over a control period)",
+        100.0,
+        "rad/s",
+    )
     recovered_m: float = _share(
         5.0,
         "this much closer to its site than where it got stuck, its tries start again",

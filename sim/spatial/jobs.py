@@ -418,7 +418,12 @@ class Jobs:
                 return
         self.fired["backoff"] += 1
         c = self.controller
-        turn = self.rng.uniform(-0.5, 0.5) * c.omega_max_radps
+        if self.avoid:  # a slow arc: the speed caps hold a heading over a period
+            turn = self.rng.uniform(-0.5, 0.5) * min(
+                2.0 * self.recovery.avoid_turn_radps, c.omega_max_radps
+            )
+        else:
+            turn = self.rng.uniform(-0.5, 0.5) * c.omega_max_radps
         f.backoff_cmd[j] = (-0.3 * c.v_max_mps, turn)
         f.backoff_until_s[j] = t + self.recovery.backoff_s
         f.t_progress_s[j] = np.inf
@@ -429,16 +434,20 @@ class Jobs:
     def ask_idle(self, j: int, t: float) -> bool:
         """Collision avoidance on, robot j stuck: the nearest idle robot within ``stalls.near_m``
         (not broken) that has a step off j's way (:meth:`step_off`) takes it, and j waits one stuck
-        timeout for it, spending a try. Two idle robots pulled over to the two walls of a 2 m aisle,
-        a metre apart, leave no lane between them; the nearer may have no free step while the other
-        has. The speed caps ask only an idle robot straight ahead (:meth:`make_way`); ORCA stops a
-        robot for one beside it too: an idle robot against the shelf at the mouth of a single-lane
-        gap, off to one side, held a robot in the gap until its task failed (warehouse, QL-MRTA,
-        seed 4, with ORCA's 10 neighbours). One already stepping aside or driving out of a site is
-        asked too if it stands (commanded below ``stalls.still_mps``): one that drove out through
-        the service slot another robot was sent to stood there, face to face with that robot, until
-        the other's task failed (warehouse, QL-MRTA, seed 0, at b773752). False, and nothing
-        changes, if no idle robot is near, j has used its tries or no step is free."""
+        timeout for it, spending a try.
+
+        Why beyond :meth:`make_way`: the speed caps ask only an idle robot straight ahead, while
+        ORCA also stops a robot for one beside it (an idle robot against the wall at the mouth of
+        a single-lane gap can hold a robot in the gap). The nearest idle robot may have no free
+        step where a farther one has (two robots pulled over to the two walls of a 2 m aisle
+        leave no lane between them). One already stepping aside or driving out of a site is asked
+        too if it stands (commanded below ``stalls.still_mps``): it may stand face to face with
+        the robot sent to the slot it left.
+
+        Returns:
+            False, and nothing changes, if no idle robot is near, j has used its tries or no
+            step is free; else True.
+        """
         f = self.fleet
         if f.recoveries[j] >= self.spatial.max_recoveries:
             return False

@@ -375,6 +375,20 @@ def test_stuck_robot_backs_off_on_a_random_arc_then_replans():
     assert f.task.tolist() == [0, 1] and done(w) == []
 
 
+@pytest.mark.parametrize("turn_radps", [1.0, 0.25, 0.0, 5.0])
+def test_under_avoidance_the_back_off_arc_turns_at_most_avoid_turn(turn_radps):
+    # nobody to ask aside, go round or give way to: the lone robot backs off, on the same draw
+    # as without avoidance but scaled to +-avoid_turn_radps (at most half the top turn rate)
+    w = orca_world([(2.0, 5.0)], seed=11, recovery=RecoverySpec(avoid_turn_radps=turn_radps))
+    give(w, [0], [(12.0, 5.0)])
+    w.jobs.recover(0, at(w, 30.0))
+    u = np.random.default_rng(11).uniform(-0.5, 0.5)
+    assert w.fleet.backoff_cmd[0] == pytest.approx(
+        [-0.3 * V_MAX, u * min(2.0 * turn_radps, OMEGA_MAX)], rel=1e-12, abs=0.0
+    )
+    assert w.jobs.fired["backoff"] == 1 and w.fleet.recoveries[0] == 1
+
+
 def test_robot_fails_after_max_recoveries_tries():
     w = make_world([(2.0, 5.0)], max_recoveries=2)
     f = w.fleet

@@ -418,12 +418,10 @@ class Jobs:
                 return
         self.fired["backoff"] += 1
         c = self.controller
+        top = c.omega_max_radps
         if self.avoid:  # a slow arc: the speed caps hold a heading over a period
-            turn = self.rng.uniform(-0.5, 0.5) * min(
-                2.0 * self.recovery.avoid_turn_radps, c.omega_max_radps
-            )
-        else:
-            turn = self.rng.uniform(-0.5, 0.5) * c.omega_max_radps
+            top = min(2.0 * self.recovery.avoid_turn_radps, top)
+        turn = self.rng.uniform(-0.5, 0.5) * top
         f.backoff_cmd[j] = (-0.3 * c.v_max_mps, turn)
         f.backoff_until_s[j] = t + self.recovery.backoff_s
         f.t_progress_s[j] = np.inf
@@ -483,13 +481,10 @@ class Jobs:
         ``jams.lane_gap_m`` off the rest of j's path, and reached by a planned path at most twice
         the step long that keeps from j two radii and ``lane_gap_m`` (or as far as k stands, if
         nearer) less half ``lane_gap_m``, and never less than two radii (a robot closer to a wall
-        than the planner's free space can step off it too). A way past j at two radii and 2 cm left
-        both standing (warehouse_wide, QL-MRTA, seed 25). A step along j's way, or into a gap j's
-        path runs through, only moved the jam: in the warehouse (market, seed 6) an idle robot ahead
-        of a driving one was stepped into the 1 m cross-aisle gap that the driving robot's way ran
-        through, and the driving robot stood at the gap's mouth until its task failed. (0, 2) if no
-        step will do. ``way``: j's way ahead (x + iy) if not its path (a robot holding before a
-        passage: its way through it)."""
+        than the planner's free space can step off it too). A way that passes j at two radii
+        leaves both standing; a step along j's way, or into a gap j's path runs through, only
+        moves the jam to the gap's mouth. (0, 2) if no step will do. ``way``: j's way ahead
+        (x + iy) if not its path (a robot holding before a passage: its way through it)."""
         r = self.controller.radius_m
         fol = self.follower
         if way is None:

@@ -139,7 +139,7 @@ class Jams:
         ``ahead_grow_m`` (``GridPlanner.path_around``), and takes that way if its extra
         length at top speed takes less than the longest such wait. Without it a robot drives
         up to one at work in a 2 m aisle, where ORCA leaves a band of about 10 cm to pass
-        in, and stands there (``docs/avoidance.md``)."""
+        in, and stands there."""
         if not (self.due.any() or self.began.any()):
             return
         f, fol, z = self.fleet, self.follower, self.fleet.last_z_m

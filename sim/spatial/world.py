@@ -80,7 +80,7 @@ WALL_THICKNESS_M = 1.0
 # handlers and the space hold each other), which costs tens of ms whatever the space's size:
 # one runs once the dropped spaces hold this many robots in all (every set from 250 robots on;
 # every 25 sets of a 10-robot run, whose RSS then levels off 1.3 MiB higher in paper_spatial and
-# 3.6 MiB in the warehouse: RSS after 500 rebuilds, a probe; docs/avoidance.md, "Speed").
+# 3.6 MiB in the warehouse: RSS after 500 rebuilds, measured once).
 GC_ROBOTS = 250
 
 

@@ -22,8 +22,7 @@ market, seed 6: a robot stood 24 s on a shelf's line until its task failed). So 
 heading runs nearly along (``|n . h|`` below ``slack_shallow``, about 5.7 degrees) may be closed
 on at ``robot_slack_mps`` (robots' lines) or ``wall_slack_mps`` (walls' and lanes'): at most 0.5
 mm a control period, and only by a robot driving almost parallel to the line.
-``docs/avoidance.md`` has the measurements ("A robot frozen on a line"), and what a slack on
-every line did (a contact in the 20-robot circle swap).
+A slack on every line was tried: it gave a contact in the 20-robot circle swap.
 
 Walls: a robot that no robot half-plane binds still has the obstacle lines (the nearest
 obstacle point, and the two sides of a single lane): where its plan leaves one of them,
@@ -38,9 +37,9 @@ every pair pass the same way round, so the crowd turns as a roundabout instead o
 (``tests/behaviour/test_orca.py``: 20 robots swap a 5 m circle in 16.7 s, 17.8 s with the
 compiled period, IR-SIM RVO 23.1 s, without a contact).
 ``bias_room_m`` limits it to robots whose body has more room than that to the nearest obstacle;
-the default, ``-inf``, biases every such robot. 1.0 m was measured (``docs/avoidance.md``,
-"Probes measured and not merged"): faster in both scenarios, but head-on pairs in
-the warehouse's 2 m aisles, which then no longer agree on a side, lost tasks to jams.
+the default, ``-inf``, biases every such robot. 1.0 m was measured: faster in both scenarios,
+but head-on pairs in the warehouse's 2 m aisles, which then no longer agree on a side, lost
+tasks to jams.
 ``bias_meet_deg`` (30 by default; 180: off) limits it to meetings (:func:`meeting`): a robot
 whose preferred velocity, relative to a neighbour's velocity, points within that angle of the
 neighbour (a head-on or near-symmetric approach, where the two must agree on a side), or one

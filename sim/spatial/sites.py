@@ -155,14 +155,15 @@ class Sites:
         of a robot let in after holding moves on by the time it held, and while it holds it
         has ``hold_max_s`` more. Schedules the next check."""
         f, z = self.fleet, self.fleet.last_z_m
-        driving = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t) & ~self.blocked
-        driving &= ~self.held
+        driving = (f.state == DRIVING) & (f.backoff_until_s <= t)
+        driving &= ~(f.replan | self.blocked | self.held)
         if not driving.any():
             self.queue_check_s = np.inf
             return
         gap = np.abs(z - self.service)
+        close = gap < self.rules.queue_m
         cand = driving & ~self.admitted
-        near = cand & (gap < self.rules.queue_m)
+        near = cand & close
         held = self.holding.nonzero()[0]
         if len(held):
             rest = cand.nonzero()[0]
@@ -176,14 +177,12 @@ class Sites:
         self.queue_check_s = next_check_s(
             t, far, self.controller.speed_bound * self.follower.v_max_mps
         )
-        if (driving & (gap < self.rules.queue_m)).any():  # robots hold or come in: look next period
+        if (driving & close).any():  # robots hold or come in: look next period
             self.queue_check_s = t
         rows = near.nonzero()[0]
         if len(rows):
             self.let_in_or_hold(rows, gap, t)
-        self.clear_loiterers(
-            driving & ((self.admitted & (gap < self.rules.queue_m)) | self.holding), t
-        )
+        self.clear_loiterers(driving & ((self.admitted & close) | self.holding), t)
 
     def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
         """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them), first
@@ -267,11 +266,14 @@ class Sites:
         """Idle robots standing within ``queue_m`` of a site that robots ``coming`` (a mask:
         let in to it, or holding in its queue) come to drive out (:meth:`leave`)."""
         f = self.fleet
-        idle = (f.state == IDLE) & ~f.yielding & ~self.broken
+        idle = (f.state == IDLE) & ~(f.yielding | self.broken)
         if not (idle.any() and coming.any()):
             return
+        z = f.last_z_m[idle]
+        if not (np.abs(z[:, None] - self.service[coming][None, :]) < self.rules.queue_m).any():
+            return  # no idle robot near such a site (the usual case): the test below, shorter
         sites = np.unique(self.service[coming])
-        near = np.abs(f.last_z_m[idle][:, None] - sites[None, :]) < self.rules.queue_m
+        near = np.abs(z[:, None] - sites[None, :]) < self.rules.queue_m
         moved = False
         for j, k in zip(*near.nonzero(), strict=True):
             j = int(idle.nonzero()[0][j])

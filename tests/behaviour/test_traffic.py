@@ -246,8 +246,21 @@ def test_a_robot_beginning_work_reannotates_only_the_ways_that_pass_near_it():
 @pytest.mark.parametrize("case", ["one_gap", "aisle"])
 def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     """A control period in which nothing the rules follow changed returns at once
-    (``Traffic._quiet``); the same runs with every period taken in full are bit-identical."""
+    (``Traffic._still``, on the states as bytes; else ``Traffic._quiet``); the same runs with
+    every period taken in full are bit-identical, and whenever the quick test says still, the
+    full one says quiet."""
     from sim.spatial.traffic.rules import Traffic
+
+    still, agreed = Traffic._still, []
+
+    def checked(self) -> bool:
+        out = still(self)
+        if out:
+            work = self.fleet.state == WORKING
+            assert not (work != self.working).any()
+            assert self._quiet(self.fleet.state == DRIVING)
+            agreed.append(self.fleet.state.copy())
+        return out
 
     def trace():
         if case == "one_gap":
@@ -262,13 +275,18 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
             out.append(w.fleet.last_z_m.copy())
         return np.array(out), w.summary()
 
-    quick, quick_summary = trace()
     with monkeypatch.context() as m:
+        m.setattr(Traffic, "_still", checked)
+        quick, quick_summary = trace()
+    with monkeypatch.context() as m:
+        m.setattr(Traffic, "_still", lambda self: False)
         m.setattr(Traffic, "_quiet", lambda self, drive: False)
         full, full_summary = trace()
     assert np.array_equal(quick, full)
     assert quick_summary == full_summary
     assert quick_summary["traffic_grants"] >= 2
+    assert len(agreed) >= 10  # the quick test was taken, with robots driving and at work
+    assert any((s == DRIVING).any() for s in agreed) and any((s == WORKING).any() for s in agreed)
 
 
 def test_a_robot_kept_out_at_the_mouth_holds_off_the_lane_round_it():
@@ -302,3 +320,28 @@ def test_a_robot_kept_out_at_the_mouth_holds_off_the_lane_round_it():
     assert run(w, 60.0, each) < 15.0
     assert seen["both"] == 0 and w.contacts.robot_hits == 0 and w.jobs.failures == 0
     assert w.summary()["traffic_spot_near"] == 1
+
+
+def test_a_path_given_in_a_still_period_is_annotated():
+    """The quick test for a quiet period (``Traffic._still``) looks at the robots' states only:
+    a driving robot given a new path while every state stays as it was is still annotated,
+    because the follower's count of paths set changed."""
+    from sim.spatial.traffic.rules import Traffic
+
+    starts = [(8.0, 6.0), (2.0, 6.0), (14.0, 6.0)]
+    goals = [(8.0, 6.0), (14.0, 6.0), (2.0, 6.0)]
+    w = world(starts, goals, AISLE, ON, size=(16.0, 12.0))
+    tr = w.jobs.traffic
+    while not (Traffic._still(tr) and (w.fleet.state == DRIVING).any()):
+        w.advance(0.1)
+        assert w.time_s < 30.0
+    j = int((w.fleet.state == DRIVING).nonzero()[0][0])
+    calls = []
+    plain = tr.annotate
+    tr.annotate = lambda k, t, round_workers=True: (calls.append(k), plain(k, t, round_workers))
+    tr.period(w.time_s)
+    assert calls == []  # nothing changed: the period returned at once
+    z = complex(w.fleet.last_z_m[j])
+    w.jobs.follower.set_path(j, np.array([[z.real, z.imag], [z.real, z.imag + 1.0]]))
+    tr.period(w.time_s)
+    assert calls == [j]

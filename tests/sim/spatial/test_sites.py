@@ -504,6 +504,22 @@ def test_idle_robots_loitering_at_a_site_robots_are_let_in_to_drive_out():
     assert abs(waypoints(w, 2)[-1] - (SITE + (QUEUE_M + EXIT_M) * 1j)) < 1e-9
 
 
+@pytest.mark.parametrize("off_m, leaves", [(QUEUE_M - 1e-6, True), (QUEUE_M, False)])
+def test_an_idle_robot_just_within_queue_distance_of_a_site_robots_come_to_drives_out(
+    off_m, leaves
+):
+    """``Sites.clear_loiterers`` sends out an idle robot closer than ``queue_m`` to the site,
+    however close to that bound, and not one at it."""
+    w = orca_world([(10.0, 9.0), (2.0, 5.0), (10.0, 5.0 - off_m)])
+    f, jobs = w.fleet, w.jobs
+    give(w, [1], [(10.0, 5.0)])
+    f.last_z_m[1] = SITE - 2.0
+    f.last_z_m[2] = SITE - off_m * 1j
+    jobs.sites.queue(at(w, 4.0))
+    assert jobs.sites.admitted[1]
+    assert f.yielding.tolist() == [False, False, leaves]
+
+
 def test_a_leaving_robot_never_heads_straight_at_a_robot_let_in_and_else_stays():
     w, f, jobs = site_crowd(1)
     jobs.sites.admitted[1] = True

@@ -20,9 +20,11 @@ take the query above, so small scenarios never build a field and keep their resu
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import shortest_path
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from sim.scenario import SpatialSpec
 from sim.spatial.navigation.buckets import BoxBuckets, typical_size
@@ -38,9 +40,25 @@ LOCAL_MIN_VERTICES = 256  # path_around in an arena with more vertices plans in 
 LOCAL_MARGIN_M = 6.0  # ... this much round the start, the goal and the robots, m
 
 
+PAIRS_CACHED = 256  # graphs of at most this many vertices share their index pairs (path_around)
+
+
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(n, k=1)``: every pair of n vertices, i < j, row by row (read-only
+    and shared for small n, where working them out costs as much as the rest of a graph)."""
+    return _small_pairs(n) if n <= PAIRS_CACHED else np.triu_indices(n, k=1)
+
+
+@functools.lru_cache(maxsize=8)
+def _small_pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    i, j = np.triu_indices(n, k=1)
+    i.flags.writeable = j.flags.writeable = False
+    return i, j
+
+
 def halfplanes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outward unit normals (E, 2) and offsets (E,) of a convex CCW polygon: inside is n.x < c."""
-    edge = np.roll(poly, -1, axis=0) - poly
+    edge = np.concatenate((poly[1:], poly[:1])) - poly  # np.roll(poly, -1, axis=0), quicker
     normal = np.column_stack([edge[:, 1], -edge[:, 0]])
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     return normal, np.einsum("ij,ij->i", normal, poly)
@@ -65,7 +83,7 @@ def inflate(poly: np.ndarray, d_m: float) -> np.ndarray:
         lines_n.append(normal[i])
         lines_c.append(offset[i] + d_m)
     n, c = np.array(lines_n), np.array(lines_c)
-    n2, c2 = np.roll(n, 1, axis=0), np.roll(c, 1)
+    n2, c2 = np.concatenate((n[-1:], n[:-1])), np.concatenate((c[-1:], c[:-1]))  # np.roll(_, 1)
     det = n2[:, 0] * n[:, 1] - n2[:, 1] * n[:, 0]
     x = (c2 * n[:, 1] - c * n2[:, 1]) / det
     y = (n2[:, 0] * c - n[:, 0] * c2) / det
@@ -176,15 +194,16 @@ class GridPlanner:
         order). ``known``: as :meth:`set_obstacles`."""
         v = self.vertices_
         nv = len(v)
-        i, j = np.triu_indices(nv, k=1)
+        i, j = _pairs(nv)
         ok = ~self.blocked(v[i], v[j]) if known is None else self._visible(*known, i, j)
         self.seen_ = ok
         i, j = i[ok], j[ok]
         w = np.linalg.norm(v[i] - v[j], axis=1) + 1e-12  # coincident vertices stay joined
-        graph = coo_matrix((w, (i, j)), shape=(nv, nv)).tocsr()
-        self.apsp_, self.pred_ = shortest_path(
-            graph, method="D", directed=False, return_predecessors=True
-        )
+        # the pairs come row by row, columns rising: they are the sparse rows as they stand
+        indptr = np.zeros(nv + 1, dtype=np.int32)
+        np.cumsum(np.bincount(i, minlength=nv), out=indptr[1:])
+        graph = csr_matrix((w, j.astype(np.int32), indptr), shape=(nv, nv))
+        self.apsp_, self.pred_ = dijkstra(graph, directed=False, return_predecessors=True)
 
     def _visible(self, known: GridPlanner, n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
         """Whether vertices i[s] and j[s] see each other, :meth:`_build_graph`'s test: a pair

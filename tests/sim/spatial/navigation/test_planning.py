@@ -261,6 +261,29 @@ def test_obstacles_added_to_known_ones_give_the_graph_built_from_scratch(seed):
     assert fast.scalar_ == slow.scalar_
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_the_visibility_graph_is_scipys_shortest_paths_over_the_visible_pairs(seed):
+    """The geodesics and predecessors between vertices are those of
+    ``scipy.sparse.csgraph.shortest_path`` over the visible pairs (COO, then CSR), bit for bit
+    (the planner builds its sparse rows directly), and agree with Floyd-Warshall; squares on a
+    whole-metre grid make paths of equal length, so ties occur."""
+    from scipy.sparse.csgraph import floyd_warshall, shortest_path
+
+    rng = np.random.default_rng(seed)
+    centres = rng.integers(2, 18, (8, 2)).astype(float).tolist()
+    planner = GridPlanner(spatial([BOX, *_squares(centres, 0.5)]))
+    v, nv = planner.vertices_, len(planner.vertices_)
+    i, j = np.triu_indices(nv, k=1)
+    i, j = i[planner.seen_], j[planner.seen_]
+    w = np.linalg.norm(v[i] - v[j], axis=1) + 1e-12
+    graph = coo_matrix((w, (i, j)), shape=(nv, nv)).tocsr()
+    dist, pred = shortest_path(graph, method="D", directed=False, return_predecessors=True)
+    np.testing.assert_array_equal(planner.apsp_, dist)
+    np.testing.assert_array_equal(planner.pred_, pred)
+    np.testing.assert_allclose(planner.apsp_, floyd_warshall(graph, directed=False), atol=1e-9)
+    assert nv > 20 and 0 < planner.seen_.sum() < len(planner.seen_)
+
+
 def test_path_around_in_a_local_box_builds_the_graph_it_would_from_scratch(monkeypatch):
     """In a large arena path_around keeps the obstacles near a box and reuses the arena's
     visibility for their vertices: each throwaway graph equals the one built without."""
@@ -491,3 +514,16 @@ def test_in_a_large_arena_path_around_plans_in_a_local_box_and_finds_the_same_pa
     assert len(local) > 2 and np.allclose(local, whole)
     far = pl.path_around((2.5, 3.0), (62.0, 62.0), robot, 0.25)  # goal far off: the box grows
     assert len(far) and np.allclose(far[-1], (62.0, 62.0))
+
+
+@pytest.mark.parametrize("n", [0, 1, 5, 256, 257])
+def test_vertex_pairs_are_the_upper_triangle_and_shared_ones_cannot_be_written(n):
+    from sim.spatial.navigation.planning import PAIRS_CACHED, _pairs
+
+    i, j = _pairs(n)
+    want = np.triu_indices(n, k=1)
+    np.testing.assert_array_equal(i, want[0])
+    np.testing.assert_array_equal(j, want[1])
+    shared = n <= PAIRS_CACHED
+    assert i.flags.writeable is not shared and j.flags.writeable is not shared
+    assert (_pairs(n)[0] is i) is shared  # small n: the same arrays again

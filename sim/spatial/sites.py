@@ -170,15 +170,16 @@ class Sites:
             same = np.abs(self.service[rest, None] - self.service[held][None, :]) < 1e-6
             crowd = same & (np.abs(z[rest, None] - z[held][None, :]) < self.rules.crowd_m)
             near[rest[crowd.any(axis=1)]] = True
-        far = (
-            float(np.where(driving & (gap >= self.rules.queue_m), gap, np.inf).min())
-            - self.rules.queue_m
-        )
-        self.queue_check_s = next_check_s(
-            t, far, self.controller.speed_bound * self.follower.v_max_mps
-        )
         if (driving & close).any():  # robots hold or come in: look next period
             self.queue_check_s = t
+        else:  # when the nearest could come within queue_m
+            far = (
+                float(np.where(driving & (gap >= self.rules.queue_m), gap, np.inf).min())
+                - self.rules.queue_m
+            )
+            self.queue_check_s = next_check_s(
+                t, far, self.controller.speed_bound * self.follower.v_max_mps
+            )
         rows = near.nonzero()[0]
         if len(rows):
             self.let_in_or_hold(rows, gap, t)

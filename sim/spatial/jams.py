@@ -191,7 +191,8 @@ class Jams:
         f, fol, z = self.fleet, self.follower, self.fleet.last_z_m
         pts, idx, last = fol.points[rows], fol.index[rows], fol.last[rows]
         col = np.arange(pts.shape[1])
-        start = np.where(col == idx[:, None], z[rows, None], np.roll(pts, 1, axis=1))
+        prev = np.concatenate((pts[:, -1:], pts[:, :-1]), axis=1)  # np.roll(pts, 1, axis=1)
+        start = np.where(col == idx[:, None], z[rows, None], prev)
         seg = pts - start  # (n, P): the segment into each waypoint; the first from the robot
         live = (col >= idx[:, None]) & (col <= last[:, None])
         seg2 = (seg * seg.conj()).real

@@ -162,23 +162,17 @@ class Traffic:
         """True if every robot's state is what it was when the last full period began and the
         rules follow none: :meth:`_quiet` then holds and no robot began or ended work (at a
         full period ``working`` and ``driving`` are set from that state), in fewer steps."""
-        locks = self.locks
-        return (
-            not (locks.occupants or locks.requests or any(self.chains) or self.held.any())
-            and self.fleet.state.tobytes() == self.state_seen
-        )
+        return self._follow_none() and self.fleet.state.tobytes() == self.state_seen
 
     def _quiet(self, drive: np.ndarray) -> bool:
         """True if no robot began or stopped driving since the last period and the rules
-        follow none (no chain ahead, lock, request or hold): then a period changes nothing."""
+        follow none: then a period changes nothing."""
+        return self._follow_none() and not (drive != self.driving).any()
+
+    def _follow_none(self) -> bool:
+        """True if the rules follow no robot: no lock, request, hold or chain ahead."""
         locks = self.locks
-        return not (
-            locks.occupants
-            or locks.requests
-            or self.held.any()
-            or (drive != self.driving).any()
-            or any(self.chains)
-        )
+        return not (locks.occupants or locks.requests or self.held.any() or any(self.chains))
 
     def _active(self) -> np.ndarray:
         """(m,) robots the rules follow: with a chain ahead, a lock, a request or holding."""

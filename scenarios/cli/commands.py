@@ -360,7 +360,7 @@ def cmd_bench(args) -> int:
     from scenarios.bench import run_bench
     from scenarios.experiments.output import dumps
 
-    result = run_bench(args.only, progress=not args.json)
+    result = run_bench(args.only, progress=not args.json, repeat=args.repeat)
     if args.json:
         print(dumps(result))
     return 0

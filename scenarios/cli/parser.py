@@ -437,6 +437,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=["sim", "gif", "alloc", "maps"],
         help="comma-separated parts (default sim,gif,alloc,maps)",
     )
+    b.add_argument(
+        "--repeat",
+        type=_positive_int,
+        default=1,
+        help="rounds of the sim part, each timing the three loops in turn; every figure is "
+        "the quickest round's and the price of each round is printed beside it: use 3 or more "
+        "to compare two commits (default 1)",
+    )
     h = sub.add_parser(
         "hardcase",
         help="a classic hard case of robot motion (circle swap, junction, ...): times, contacts",

@@ -54,3 +54,92 @@ def test_the_sim_part_prices_avoidance_with_and_without_the_rules(monkeypatch):
     }
     text = "\n".join(lines)
     assert "price of avoidance 1.50, ORCA alone (traffic rules off) 1.25" in text
+
+
+def test_repeated_rounds_take_each_loops_quickest_round_and_keep_every_rounds_price(monkeypatch):
+    """Three rounds, each timing the three loops in turn; fake wall times per round: the price
+    comes from each loop's quickest round (2.0 without, 2.4 with the rules: 1.2), which no
+    single round shows, and every round's own price is kept."""
+    walls = {
+        ("none", "on"): [2.2, 2.0, 2.6],
+        ("orca", "on"): [2.4, 3.0, 2.6],
+        ("orca", "off"): [3.0, 2.5, 2.5],
+    }
+    busy = {("none", "on"): [4.0, 5.0, 4.4], ("orca", "on"): [6.0, 5.0, 8.0]}
+    busy[("orca", "off")] = [7.0, 7.0, 6.0]
+    seen = []
+
+    def row(wall, extra=None):
+        return {
+            "wall_s": wall, "sim_s": 100.0, "rtf": 100.0 / wall, "s_per_robot_h": 1.0,
+            "calib_ratio": 1.0, "calib_step_us": 1.0, "control_calib_ratio": 1.0,
+            "bare_ratio": 1.0, **(extra or {}),
+        }  # fmt: skip
+
+    def fake_sim(allocator=None, avoidance="none", traffic="on"):
+        k = sum(1 for s in seen if s == ("sim", avoidance, traffic))
+        seen.append(("sim", avoidance, traffic))
+        return {"10": row(busy[avoidance, traffic][k]), "100": row(walls[avoidance, traffic][k])}
+
+    def fake_paper(avoidance, traffic):
+        k = sum(1 for s in seen if s == ("paper", avoidance, traffic))
+        seen.append(("paper", avoidance, traffic))
+        return row(walls[avoidance, traffic][k], {"round": k})
+
+    monkeypatch.setattr(loop, "bench_sim", fake_sim)
+    monkeypatch.setattr(run, "bench_paper_loop", fake_paper)
+    lines = []
+    out = run.bench_sim_part(lines.append, repeat=3)
+    assert [s[1:] for s in seen[::2]] == [("none", "on"), ("orca", "on"), ("orca", "off")] * 3
+    p10 = out["avoidance_price"]["10"]
+    assert p10["price"] == pytest.approx(2.4 / 2.0)
+    assert p10["orca_alone_price"] == pytest.approx(2.5 / 2.0)
+    assert p10["price_rounds"] == pytest.approx([2.4 / 2.2, 3.0 / 2.0, 2.6 / 2.6])
+    assert p10["busy_price"] == pytest.approx(5.0 / 4.0)
+    assert p10["busy_orca_alone_price"] == pytest.approx(6.0 / 4.0)
+    assert out["sim"]["10"]["round"] == 1 and out["sim_orca"]["10"]["round"] == 0
+    assert out["sim"]["10"]["busy_wall_s"] == 4.0 and out["sim"]["10"]["wall_s"] == 2.0
+    assert out["avoidance_price"]["100"]["price"] == pytest.approx(2.4 / 2.0)
+    text = "\n".join(lines)
+    assert "price of avoidance 1.20 (best of 3; rounds 1.00 to 1.50), ORCA alone" in text
+    assert "round 3 of 3" in text
+
+
+def test_one_round_reports_no_round_prices(monkeypatch):
+    row = {"wall_s": 1.0, "sim_s": 10.0, "rtf": 10.0, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
+           "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0}  # fmt: skip
+    monkeypatch.setattr(
+        loop, "bench_sim", lambda allocator=None, avoidance="none", traffic="on": {"10": dict(row)}
+    )
+    monkeypatch.setattr(run, "bench_paper_loop", lambda avoidance, traffic: dict(row))
+    lines = []
+    out = run.bench_sim_part(lines.append)
+    assert "price_rounds" not in out["avoidance_price"]["10"]
+    assert not any("round" in line or "best of" in line for line in lines)
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "two"])
+def test_a_bad_repeat_is_one_line_and_exit_2(value, capsys):
+    from scenarios.cli.app import main
+
+    try:
+        code = main(["bench", "--only", "sim", "--repeat", value])
+    except SystemExit as exc:  # argparse's own errors
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--repeat" in err and "Traceback" not in err
+
+
+def test_the_cli_passes_repeat_to_the_bench(monkeypatch, capsys):
+    import json
+
+    import scenarios.bench as bench
+    from scenarios.cli.app import main
+
+    asked = []
+    monkeypatch.setattr(
+        bench, "run_bench", lambda parts, progress, repeat: asked.append((parts, repeat)) or {}
+    )
+    assert main(["bench", "--only", "sim", "--repeat", "3", "--json"]) == 0
+    assert asked == [(["sim"], 3)] and json.loads(capsys.readouterr().out) == {}

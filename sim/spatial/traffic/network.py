@@ -149,7 +149,7 @@ class PassageMap:
         b = self.boxes
         keep = (b[:, 0] <= z.real + d) & (b[:, 2] >= z.real - d)
         keep &= (b[:, 1] <= z.imag + d) & (b[:, 3] >= z.imag - d)
-        return [s for s, k in zip(self.shapes, keep.tolist(), strict=True) if k]
+        return [self.shapes[k] for k in np.flatnonzero(keep).tolist()]
 
     # -- holding --------------------------------------------------------------------------
     def open_spot(self, spot: complex, to_left: complex, key: int, direction: int) -> bool:

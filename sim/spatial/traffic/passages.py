@@ -233,16 +233,17 @@ def worker_passage(
         return None
     across = gaps[k][2] - gaps[k][1]
     across = across / abs(across) if abs(across) > 1e-12 else 1.0 + 0j
-    room = []
-    for sign in (1.0, -1.0):
+    room = {}
+    for sign in (-1.0, 1.0):  # away from the nearest first: that side usually leaves two lanes
         hits = [clip_line(z, sign * across, s) for s in shapes]
         ahead = [t0 for t0, t1 in hits if t0 <= t1 and t1 > 0.0]
-        free = min((max(t, 0.0) for t in ahead), default=np.inf) - radius_m
-        room.append(free)
-    if max(room) >= passage_m:
-        return None
-    near, far = room
+        room[sign] = min((max(t, 0.0) for t in ahead), default=np.inf) - radius_m
+        if room[sign] >= passage_m:
+            return None
+    near, far = room[1.0], room[-1.0]
     centre = z + 0.5 * (near - far) * across  # the middle of the aisle's cross-section
     half_w = 0.5 * (near + far) + radius_m
-    passable = max(room) >= lane
-    return Passage(centre, 1j * across, 2.0 * radius_m, half_w, float(max(room)), worker, passable)
+    passable = max(near, far) >= lane
+    return Passage(
+        centre, 1j * across, 2.0 * radius_m, half_w, float(max(near, far)), worker, passable
+    )

@@ -127,6 +127,18 @@ def test_a_robot_at_work_in_the_middle_of_a_two_metre_aisle_leaves_a_lane_each_s
     assert p.gap_m == pytest.approx(0.75)
 
 
+@pytest.mark.parametrize("y", [5.8, 6.2])
+def test_a_robot_at_work_off_the_middle_of_an_aisle_makes_a_passage_across_the_whole_aisle(y):
+    """Nearer one shelf (0.55 m of room on that side, 0.95 m on the other, or the mirror): the
+    passage is still centred on the aisle and spans it; the wider side is its room."""
+    shelves = [as_complex(box(1, 4, 15, 5)), as_complex(box(1, 7, 15, 8))]
+    p = worker_passage(1, 8 + y * 1j, R, shelves, np.zeros(0, complex), TWO_LANES, LANE)
+    assert p is not None and p.passable
+    assert p.centre == pytest.approx(8 + 6j)
+    assert p.half_width_m == pytest.approx(1.0)
+    assert p.gap_m == pytest.approx(0.95)
+
+
 def test_a_robot_at_work_that_leaves_no_lane_closes_the_aisle():
     shelves = [as_complex(box(1, 4, 15, 5)), as_complex(box(1, 6.2, 15, 7))]  # 1.2 m aisle
     p = worker_passage(0, 8 + 5.6j, R, shelves, np.zeros(0, complex), TWO_LANES, LANE)

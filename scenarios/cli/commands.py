@@ -359,7 +359,10 @@ def hardcase_summary(runs: list[dict]) -> dict:
 def cmd_bench(args) -> int:
     from scenarios.bench import run_bench
     from scenarios.experiments.output import dumps
+    from scenarios.experiments.protocol import UserError
 
+    if args.repeat > 1 and "sim" not in args.only:
+        raise UserError(f"--repeat {args.repeat} repeats the sim part: add sim to --only")
     result = run_bench(args.only, progress=not args.json, repeat=args.repeat)
     if args.json:
         print(dumps(result))

@@ -118,17 +118,27 @@ def test_one_round_reports_no_round_prices(monkeypatch):
     assert not any("round" in line or "best of" in line for line in lines)
 
 
-@pytest.mark.parametrize("value", ["0", "-2", "two"])
-def test_a_bad_repeat_is_one_line_and_exit_2(value, capsys):
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--only", "sim", "--repeat", "0"], "must be at least 1, got 0"),
+        (["--only", "sim", "--repeat", "-2"], "must be at least 1, got -2"),
+        (["--only", "sim", "--repeat", "two"], "--repeat"),
+        (["--only", "gif", "--repeat", "3"], "--repeat 3 repeats the sim part: add sim to --only"),
+    ],
+)
+def test_a_bad_repeat_is_one_line_and_exit_2(args, message, monkeypatch, capsys):
+    import scenarios.bench as bench
     from scenarios.cli.app import main
 
+    monkeypatch.setattr(bench, "run_bench", lambda *a, **k: pytest.fail("the bench ran"))
     try:
-        code = main(["bench", "--only", "sim", "--repeat", value])
+        code = main(["bench", *args])
     except SystemExit as exc:  # argparse's own errors
         code = exc.code
     assert code == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "--repeat" in err and "Traceback" not in err
+    assert len(err.splitlines()) == 1 and message in err and "Traceback" not in err
 
 
 def test_the_cli_passes_repeat_to_the_bench(monkeypatch, capsys):

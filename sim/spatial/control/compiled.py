@@ -41,6 +41,7 @@ from sim.spatial.control.kernel.views import (
     outputs_for,
     poses_for,
     shapes_of,
+    sites_of,
     wishes_for,
 )
 from sim.spatial.control.protocol import ControlParts
@@ -114,15 +115,20 @@ class CompiledControl:
                     jobs.replan(j, (z[j].real, z[j].imag), t)
         out = outputs_for(len(f.state))
         prox_s = sch.prox_check_s
-        status, passed, steering, stops, pasts, capped, distance = self._call(
+        status, passed, steering, stops, pasts, capped, distance, quiet = self._call(
             kernel.START, t, read, out
         )
+        if quiet:  # the checks due had nothing to do: each looks again next period
+            if steering and t >= sch.site_check_s:
+                sch.site_check_s = t
+            if p.avoid and t >= jobs.sites.queue_check_s:
+                jobs.sites.queue_check_s = t
         if status == kernel.EVENTS:
             if steering:
                 self._events(t, stops, pasts)
             jobs.end_due(t)
             prox_s = sch.prox_check_s
-            status, more, _, _, _, capped, distance = self._call(kernel.COMMANDS, t, False, out)
+            status, more, _, _, _, capped, distance, _ = self._call(kernel.COMMANDS, t, False, out)
             passed += more
         self._way(t, t >= prox_s, capped, distance, out)
         if status == kernel.MAKE_WAY:
@@ -172,6 +178,7 @@ class CompiledControl:
             self.edges_,
             self.shapes_,
             self.kept_,
+            sites_of(p),
             out,
         )
 

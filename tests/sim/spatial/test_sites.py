@@ -17,6 +17,10 @@ import numpy as np
 import pytest
 
 from sim.scenario import MakeWaySpec, QueueSpec
+from sim.spatial.control.kernel import queue as compiled_queue
+from sim.spatial.control.kernel.steering import Fleet
+from sim.spatial.control.kernel.views import fleet_of
+from sim.spatial.sites import Sites
 from sim.states import DRIVING, IDLE, WAITING, WORKING, shown_states
 from tests.worlds import (
     ROOM,
@@ -55,6 +59,39 @@ def spy(jobs) -> Counter:
     count = Counter()
     jobs.sites.refresh = count
     return count
+
+
+def _queue_state(sites: Sites) -> dict:
+    f = sites.fleet
+    out = {f"fleet.{k}": v for k, v in f.state_arrays().items()}
+    out |= {f"sites.{k}": v for k, v in sites.state_arrays().items()}
+    out |= {"blocked": sites.blocked.copy(), "held": sites.held.copy()}
+    out |= {"points": sites.follower.points.copy(), "last": sites.follower.last.copy()}
+    return out
+
+
+@pytest.fixture(autouse=True)
+def compiled_quiet_test_agrees(monkeypatch):
+    """Every ``Sites.queue`` call below is also put to the compiled control period's quiet test
+    (``sim.spatial.control.kernel.queue.queue_quiet``): where it says the queue has nothing to
+    do, the call must change nothing but the next check (set to now)."""
+    inner = Sites.queue
+
+    def queue(self, t):
+        f = self.fleet
+        rules = self.rules
+        s = (rules.queue_m, rules.crowd_m, 0.0, 0.0, 0.0, f.site, self.service, self.admitted)
+        s += (self.holding, self.slotted, self.blocked, self.held, self.broken, f.replan)
+        quiet = compiled_queue.queue_quiet(t, Fleet(*fleet_of(f)), compiled_queue.Sites(*s))
+        before = _queue_state(self) if quiet else None
+        inner(self, t)
+        if quiet:
+            before["sites.queue_check_s"] = np.array(t)
+            after = _queue_state(self)
+            for key in before:
+                assert np.array_equal(before[key], after[key]), f"{key} changed in a quiet queue"
+
+    monkeypatch.setattr(Sites, "queue", queue)
 
 
 def turn_deg(site: complex, z: complex, end: complex) -> float:

@@ -2,7 +2,8 @@
 
 :func:`run_period` runs the first half (``steering.steer_all``) and, when nothing needs Python
 (no yield ends, no robot gets past where it was stuck, the stuck check, the arrival check and the
-end of work not due), the second half (``commands.commands``, ``commands.finish``) in the same
+end of work not due; the arrival check and the site queues either not due or with nothing to
+do: ``queue``), the second half (``commands.commands``, ``commands.finish``) in the same
 call. Otherwise it returns at the first point where Python must act, and the caller calls again
 from the next stage: ``COMMANDS`` after the events, ``FINISH`` after a make-way request.
 
@@ -19,6 +20,7 @@ from numba import njit
 from sim.spatial.control.kernel.commands import commands, finish, new_work
 from sim.spatial.control.kernel.freewidth import Shapes
 from sim.spatial.control.kernel.obstacles import Edges
+from sim.spatial.control.kernel.queue import Sites, arrival_quiet, queue_quiet
 from sim.spatial.control.kernel.settings import AvoidLaw, DriveLaw
 from sim.spatial.control.kernel.steering import (
     Fleet,
@@ -56,6 +58,7 @@ def run_period(
     edges_t,
     shapes_t,
     kept,
+    sites_t,
     out,
 ):
     """One control period, or its rest from ``stage``.
@@ -71,16 +74,20 @@ def run_period(
             edges_t, shapes_t: the fields of ``Fleet``, ``Follower``, ``Poses``, ``Wishes``,
             ``DriveLaw``, ``AvoidLaw``, ``Edges``, ``Shapes`` in order.
         kept: (orca flags, seen_z, seen_m), kept between calls (``commands.Work``).
+        sites_t: the fields of ``queue.Sites``: what the arrival check's and the site queues'
+            quiet tests read.
         out: (v, w, q, blocker, near, push), (m,) each, written: the commands (m/s, rad/s,
             m/s), the robot in each one's way, its distance, the make-way requests.
 
     Returns:
         (status, changes of the follower's arrays (waypoints passed, widths refined), any
         robot steered, yields to stop, robots past where they were stuck, proximity capped,
-        distance): ``status`` is ``DONE``, ``EVENTS`` (the first
+        distance, quiet): ``status`` is ``DONE``, ``EVENTS`` (the first
         half is done; ``wish.stop``, ``wish.past`` and the schedule say what to handle) or
         ``MAKE_WAY`` (``out`` push); ``capped`` and ``distance`` as ``commands.proximity``
-        returns them when it ran.
+        returns them when it ran; ``quiet``: the arrival check or the site queues were due
+        and had nothing to do (``queue.arrival_quiet``, ``queue.queue_quiet``): the caller
+        sets the next time of those due to ``t``, as they would have.
     """
     avoid, n_backoff, n_yield, n_steer, recovering = schedule[:5]
     stuck_s, site_s, prox_s, queue_s, end_s, deadline_s = schedule[5:]
@@ -91,7 +98,7 @@ def run_period(
     m = poses.z.shape[0]
     k, e = orca.max_neighbours, edges.e0.shape[0]
     work = new_work(m, k, orca, e, kept[0], push, blocker, near, kept[1], kept[2])
-    passed, steering, stops, pasts = 0, False, 0, 0
+    passed, steering, stops, pasts, quiet = 0, False, 0, 0, False
     if stage == START:
         if read:
             read_poses(pose, fleet, poses)
@@ -108,13 +115,19 @@ def run_period(
             law,
             wish,
         )
-        due = stops > 0 or pasts > 0 or (steering and (t > stuck_s or t >= site_s))
+        due = stops > 0 or pasts > 0 or (steering and t > stuck_s)
         # Jobs.end_due acts on exactly these three (the site queues, ends of work, deadlines);
         # a rule added there must be added here (the parity test, which calls it every
         # period on the numpy side, would see the difference)
-        due = due or (avoid and t >= queue_s) or t + 1e-9 >= end_s or t > deadline_s
+        due = due or t + 1e-9 >= end_s or t > deadline_s
+        arrival, queue = steering and t >= site_s, avoid and t >= queue_s
+        if not due and (arrival or queue):  # Python acts only if one of them has work
+            sites = Sites(*sites_t)
+            quiet = not arrival or (avoid and arrival_quiet(fleet, poses.z, wish.go, sites))
+            quiet = quiet and (not queue or queue_quiet(t, fleet, sites))
+            due = not quiet
         if due:
-            return EVENTS, passed, steering, stops, pasts, False, np.inf
+            return EVENTS, passed, steering, stops, pasts, False, np.inf, False
         stage = COMMANDS
     capped, distance = False, np.inf
     if stage == COMMANDS:
@@ -141,7 +154,7 @@ def run_period(
             work,
         )
         if requests:
-            return MAKE_WAY, passed, steering, stops, pasts, capped, distance
+            return MAKE_WAY, passed, steering, stops, pasts, capped, distance, quiet
     passed += finish(
         t,
         n_backoff > 0,
@@ -166,4 +179,4 @@ def run_period(
         w_out,
         q_out,
     )
-    return DONE, passed, steering, stops, pasts, capped, distance
+    return DONE, passed, steering, stops, pasts, capped, distance, quiet

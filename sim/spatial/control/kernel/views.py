@@ -30,6 +30,29 @@ def fleet_of(f) -> tuple:
     )
 
 
+def sites_of(parts) -> tuple:
+    """``queue.Sites`` of the world's parts (``ControlParts``; afresh: a restore replaces the
+    sites' arrays)."""
+    f, sites = parts.fleet, parts.jobs.sites
+    rules, r = sites.rules, sites.controller.radius_m
+    return (
+        float(rules.queue_m),
+        float(rules.crowd_m),
+        float(parts.arrive_tol_m),
+        float(parts.arrive_tol_m + 2 * parts.reach_m),
+        float(2.0 * r + 0.5 * rules.slot_gap_m),
+        f.site,
+        sites.service,
+        sites.admitted,
+        sites.holding,
+        sites.slotted,
+        sites.blocked,
+        sites.held,
+        sites.broken,
+        f.replan,
+    )
+
+
 def follower_of(fol) -> tuple:
     """``steering.Follower`` of a ``PathFollower`` (afresh: a longer path regrows arrays)."""
     return (

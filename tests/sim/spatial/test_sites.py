@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from sim.scenario import MakeWaySpec, QueueSpec
-from sim.spatial.control.kernel import queue as compiled_queue
+from sim.spatial.control.kernel import quiet as compiled_quiet
 from sim.spatial.control.kernel.steering import Fleet
 from sim.spatial.control.kernel.views import fleet_of
 from sim.spatial.sites import Sites
@@ -73,7 +73,7 @@ def _queue_state(sites: Sites) -> dict:
 @pytest.fixture(autouse=True)
 def compiled_quiet_test_agrees(monkeypatch):
     """Every ``Sites.queue`` call below is also put to the compiled control period's quiet test
-    (``sim.spatial.control.kernel.queue.queue_quiet``): where it says the queue has nothing to
+    (``sim.spatial.control.kernel.quiet.queue_quiet``): where it says the queue has nothing to
     do, the call must change nothing but the next check (set to now)."""
     inner = Sites.queue
 
@@ -82,7 +82,7 @@ def compiled_quiet_test_agrees(monkeypatch):
         rules = self.rules
         s = (rules.queue_m, rules.crowd_m, 0.0, 0.0, 0.0, f.site, self.service, self.admitted)
         s += (self.holding, self.slotted, self.blocked, self.held, self.broken, f.replan)
-        quiet = compiled_queue.queue_quiet(t, Fleet(*fleet_of(f)), compiled_queue.Sites(*s))
+        quiet = compiled_quiet.queue_quiet(t, Fleet(*fleet_of(f)), compiled_quiet.Sites(*s))
         before = _queue_state(self) if quiet else None
         inner(self, t)
         if quiet:

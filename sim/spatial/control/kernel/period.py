@@ -1,9 +1,9 @@
 """The compiled control period's one entry point: both halves in one call unless an event fires.
 
 :func:`run_period` runs the first half (``steering.steer_all``) and, when nothing needs Python
-(no yield ends, no robot gets past where it was stuck, the stuck check, the arrival check and the
-end of work not due; the arrival check and the site queues either not due or with nothing to
-do: ``queue``), the second half (``commands.commands``, ``commands.finish``) in the same
+(no yield ends, no robot gets past where it was stuck, the stuck check, the end of work and the
+deadlines not due; the arrival check and the site queues either not due or with nothing to do:
+``quiet``), the second half (``commands.commands``, ``commands.finish``) in the same
 call. Otherwise it returns at the first point where Python must act, and the caller calls again
 from the next stage: ``COMMANDS`` after the events, ``FINISH`` after a make-way request.
 
@@ -20,7 +20,7 @@ from numba import njit
 from sim.spatial.control.kernel.commands import commands, finish, new_work
 from sim.spatial.control.kernel.freewidth import Shapes
 from sim.spatial.control.kernel.obstacles import Edges
-from sim.spatial.control.kernel.queue import Sites, arrival_quiet, queue_quiet
+from sim.spatial.control.kernel.quiet import Sites, arrival_quiet, queue_quiet
 from sim.spatial.control.kernel.settings import AvoidLaw, DriveLaw
 from sim.spatial.control.kernel.steering import (
     Fleet,
@@ -74,7 +74,7 @@ def run_period(
             edges_t, shapes_t: the fields of ``Fleet``, ``Follower``, ``Poses``, ``Wishes``,
             ``DriveLaw``, ``AvoidLaw``, ``Edges``, ``Shapes`` in order.
         kept: (orca flags, seen_z, seen_m), kept between calls (``commands.Work``).
-        sites_t: the fields of ``queue.Sites``: what the arrival check's and the site queues'
+        sites_t: the fields of ``quiet.Sites``: what the arrival check's and the site queues'
             quiet tests read.
         out: (v, w, q, blocker, near, push), (m,) each, written: the commands (m/s, rad/s,
             m/s), the robot in each one's way, its distance, the make-way requests.
@@ -86,7 +86,7 @@ def run_period(
         half is done; ``wish.stop``, ``wish.past`` and the schedule say what to handle) or
         ``MAKE_WAY`` (``out`` push); ``capped`` and ``distance`` as ``commands.proximity``
         returns them when it ran; ``quiet``: the arrival check or the site queues were due
-        and had nothing to do (``queue.arrival_quiet``, ``queue.queue_quiet``): the caller
+        and had nothing to do (``quiet.arrival_quiet``, ``quiet.queue_quiet``): the caller
         sets the next time of those due to ``t``, as they would have.
     """
     avoid, n_backoff, n_yield, n_steer, recovering = schedule[:5]

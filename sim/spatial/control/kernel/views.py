@@ -31,7 +31,7 @@ def fleet_of(f) -> tuple:
 
 
 def sites_of(parts) -> tuple:
-    """``queue.Sites`` of the world's parts (``ControlParts``; afresh: a restore replaces the
+    """``quiet.Sites`` of the world's parts (``ControlParts``; afresh: a restore replaces the
     sites' arrays)."""
     f, sites = parts.fleet, parts.jobs.sites
     rules, r = sites.rules, sites.controller.radius_m

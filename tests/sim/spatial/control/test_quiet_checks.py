@@ -1,4 +1,4 @@
-"""The compiled control period's quiet tests (``sim.spatial.control.kernel.queue``): when they
+"""The compiled control period's quiet tests (``sim.spatial.control.kernel.quiet``): when they
 say the arrival check and the site queues have nothing to do, the Python checks indeed change
 nothing but their next times.
 
@@ -20,7 +20,7 @@ from scenarios.protocol import RunSpec, build_run
 from sim.scenario import QueueSpec
 from sim.spatial.control.arrival import arrive
 from sim.spatial.control.kernel import period
-from sim.spatial.control.kernel import queue as kq
+from sim.spatial.control.kernel import quiet as kq
 from sim.spatial.control.kernel.steering import Fleet
 from sim.spatial.control.kernel.views import fleet_of, sites_of
 from sim.states import DRIVING, WORKING

@@ -154,9 +154,8 @@ class Sites:
         waiting) until a place is free. Holding does not use up a task's time: the deadline
         of a robot let in after holding moves on by the time it held, and while it holds it
         has ``hold_max_s`` more. Schedules the next check."""
-        f, z = self.fleet, self.fleet.last_z_m
-        driving = (f.state == DRIVING) & (f.backoff_until_s <= t)
-        driving &= ~(f.replan | self.blocked | self.held)
+        z = self.fleet.last_z_m
+        driving = self._driving(t)
         if not driving.any():
             self.queue_check_s = np.inf
             return
@@ -172,18 +171,33 @@ class Sites:
             near[rest[crowd.any(axis=1)]] = True
         if (driving & close).any():  # robots hold or come in: look next period
             self.queue_check_s = t
-        else:  # when the nearest could come within queue_m
-            far = (
-                float(np.where(driving & (gap >= self.rules.queue_m), gap, np.inf).min())
-                - self.rules.queue_m
-            )
-            self.queue_check_s = next_check_s(
-                t, far, self.controller.speed_bound * self.follower.v_max_mps
-            )
+        else:
+            self.queue_check_s = self._later_s(driving, gap, t)
         rows = near.nonzero()[0]
         if len(rows):
             self.let_in_or_hold(rows, gap, t)
         self.clear_loiterers(driving & ((self.admitted & close) | self.holding), t)
+
+    def _driving(self, t: float) -> np.ndarray:
+        """(m,) the robots the queues look at: driving, not backing off, replanning, waiting
+        for a repair or held before a passage."""
+        f = self.fleet
+        driving = (f.state == DRIVING) & (f.backoff_until_s <= t)
+        driving &= ~(f.replan | self.blocked | self.held)
+        return driving
+
+    def _later_s(self, driving: np.ndarray, gap: np.ndarray, t: float) -> float:
+        """With no robot ``driving`` within ``queue_m`` of its site (``gap`` from it, m): when
+        the nearest could first come that near, s."""
+        far = float(np.where(driving & (gap >= self.rules.queue_m), gap, np.inf).min())
+        closing = self.controller.speed_bound * self.follower.v_max_mps
+        return next_check_s(t, far - self.rules.queue_m, closing)
+
+    def later_check_s(self, t: float) -> float:
+        """The next check :meth:`queue` sets at ``t`` when it finds some robot driving and none
+        within ``queue_m`` of its site (the compiled control period's ``quiet.LATER``)."""
+        gap = np.abs(self.fleet.last_z_m - self.service)
+        return self._later_s(self._driving(t), gap, t)
 
     def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
         """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them), first

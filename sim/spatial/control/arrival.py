@@ -39,7 +39,7 @@ def arrive(
             then tested against its neighbours only (the same answer: touching robots are
             neighbours); None tests every queued robot against every standing one.
     """
-    f, c, tol, reach = p.fleet, p.controller, p.arrive_tol_m, p.reach_m
+    f, tol, reach = p.fleet, p.arrive_tol_m, p.reach_m
     gap = np.abs(f.site - z)
     zone = tol + 2 * reach
     there = go & (gap <= zone)
@@ -69,5 +69,13 @@ def arrive(
                 there[queue] = False
                 there[i[nearer]] = True
         p.jobs.start_work(there.nonzero()[0].tolist(), v, w, t)
+    p.schedule.site_check_s = next_arrival_check_s(p, gap, go, t)
+
+
+def next_arrival_check_s(p: ControlParts, gap: np.ndarray, go: np.ndarray, t: float) -> float:
+    """When the driving robot nearest its arrival zone could first be in it (now, if one is):
+    ``gap`` (n,) each robot's distance to its site, ``np.abs(site - z)``, m; ``go`` the robots
+    driving to a site; ``t`` now, s."""
+    c, zone = p.controller, p.arrive_tol_m + 2 * p.reach_m
     nearest = float(np.where(go, gap, np.inf).min()) - zone
-    p.schedule.site_check_s = next_check_s(t, nearest, c.speed_bound * c.v_max_mps)
+    return next_check_s(t, nearest, c.speed_bound * c.v_max_mps)

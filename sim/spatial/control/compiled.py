@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.spatial.control.arrival import arrive
+from sim.spatial.control.arrival import arrive, next_arrival_check_s
 from sim.spatial.control.avoidance import wall_reach_m
 from sim.spatial.control.kernel.settings import avoid_law, drive_law
 from sim.spatial.control.kernel.views import (
@@ -115,20 +115,18 @@ class CompiledControl:
                     jobs.replan(j, (z[j].real, z[j].imag), t)
         out = outputs_for(len(f.state))
         prox_s = sch.prox_check_s
-        status, passed, steering, stops, pasts, capped, distance, quiet = self._call(
+        status, passed, steering, stops, pasts, capped, distance, site_s, queue_s = self._call(
             kernel.START, t, read, out
         )
-        if quiet:  # the checks due had nothing to do: each looks again next period
-            if steering and t >= sch.site_check_s:
-                sch.site_check_s = t
-            if p.avoid and t >= jobs.sites.queue_check_s:
-                jobs.sites.queue_check_s = t
+        if site_s or queue_s:  # not both kernel.ACTS
+            self._quiet(t, site_s, queue_s)
         if status == kernel.EVENTS:
             if steering:
                 self._events(t, stops, pasts)
             jobs.end_due(t)
             prox_s = sch.prox_check_s
-            status, more, _, _, _, capped, distance, _ = self._call(kernel.COMMANDS, t, False, out)
+            res = self._call(kernel.COMMANDS, t, False, out)
+            status, more, capped, distance = res[0], res[1], res[5], res[6]
             passed += more
         self._way(t, t >= prox_s, capped, distance, out)
         if status == kernel.MAKE_WAY:
@@ -144,6 +142,24 @@ class CompiledControl:
         calm = not (sch.n_steer or sch.n_backoff)
         calm = calm and not (np.count_nonzero(v) or np.count_nonzero(w))
         sch.resting, sch.calm = calm and sch.calm, calm
+
+    def _quiet(self, t: float, site_kind: int, queue_kind: int) -> None:
+        """The arrival check and the site queues, found by the kernel with nothing to do but
+        set their next times (of the kind ``kernel.NOW``, ``LATER`` or ``NEVER``; ``ACTS``:
+        the check was not found so): set them, each with its check's own code."""
+        p, kernel = self.parts, self.kernel_
+        if site_kind == kernel.NOW:
+            p.schedule.site_check_s = t
+        elif site_kind == kernel.LATER:
+            gap = np.abs(p.fleet.site - self.poses_[0])
+            p.schedule.site_check_s = next_arrival_check_s(p, gap, self.wishes_[3], t)
+        sites = p.jobs.sites
+        if queue_kind == kernel.NOW:
+            sites.queue_check_s = t
+        elif queue_kind == kernel.NEVER:
+            sites.queue_check_s = np.inf
+        elif queue_kind == kernel.LATER:
+            sites.queue_check_s = sites.later_check_s(t)
 
     def _call(self, stage: int, t: float, read: bool, out: tuple) -> tuple:
         """``kernel.run_period`` from ``stage`` with the state as it is now."""

@@ -73,8 +73,9 @@ def _queue_state(sites: Sites) -> dict:
 @pytest.fixture(autouse=True)
 def compiled_quiet_test_agrees(monkeypatch):
     """Every ``Sites.queue`` call below is also put to the compiled control period's quiet test
-    (``sim.spatial.control.kernel.quiet.queue_quiet``): where it says the queue has nothing to
-    do, the call must change nothing but the next check (set to now)."""
+    (``sim.spatial.control.kernel.quiet.queue_next``): where it says the queue has nothing to
+    do but set its next check, the call must change nothing else and set the time the control
+    period would (now, never, or ``Sites.later_check_s``)."""
     inner = Sites.queue
 
     def queue(self, t):
@@ -86,11 +87,16 @@ def compiled_quiet_test_agrees(monkeypatch):
             slotted=self.slotted, blocked=self.blocked, held=self.held, broken=self.broken,
             replan=f.replan,
         )  # fmt: skip
-        quiet = compiled_quiet.queue_quiet(t, Fleet(*fleet_of(f)), sites)
-        before = _queue_state(self) if quiet else None
+        kind = compiled_quiet.queue_next(t, Fleet(*fleet_of(f)), sites)
+        before = None if kind == compiled_quiet.ACTS else _queue_state(self)
+        if kind == compiled_quiet.LATER:
+            nxt = self.later_check_s(t)
+        else:
+            nxt = {compiled_quiet.NOW: t, compiled_quiet.NEVER: np.inf}.get(kind)
         inner(self, t)
-        if quiet:
-            before["sites.queue_check_s"] = np.array(t)
+        if before is not None:
+            assert self.queue_check_s == nxt
+            before["sites.queue_check_s"] = np.array(nxt)
             after = _queue_state(self)
             for key in before:
                 assert np.array_equal(before[key], after[key]), f"{key} changed in a quiet queue"

@@ -2,10 +2,11 @@
 
 :func:`run_period` runs the first half (``steering.steer_all``) and, when nothing needs Python
 (no yield ends, no robot gets past where it was stuck, the stuck check, the end of work and the
-deadlines not due; the arrival check and the site queues either not due or with nothing to do:
-``quiet``), the second half (``commands.commands``, ``commands.finish``) in the same
-call. Otherwise it returns at the first point where Python must act, and the caller calls again
-from the next stage: ``COMMANDS`` after the events, ``FINISH`` after a make-way request.
+deadlines not due; the arrival check and the site queues either not due or with nothing to do
+but set their next times: ``quiet``), the second half (``commands.commands``,
+``commands.finish``) in the same call. Otherwise it returns at the first point where Python
+must act, and the caller calls again from the next stage: ``COMMANDS`` after the events,
+``FINISH`` after a make-way request.
 
 Arguments arrive as plain tuples of arrays and of numbers, which numba types quickly at each
 call; they become the named tuples the kernel reads (``steering.Fleet``, ``Follower``,
@@ -20,7 +21,15 @@ from numba import njit
 from sim.spatial.control.kernel.commands import commands, finish, new_work
 from sim.spatial.control.kernel.freewidth import Shapes
 from sim.spatial.control.kernel.obstacles import Edges
-from sim.spatial.control.kernel.quiet import Sites, arrival_quiet, queue_quiet
+from sim.spatial.control.kernel.quiet import (  # noqa: F401 (NOW, LATER, NEVER: the caller's)
+    ACTS,
+    LATER,
+    NEVER,
+    NOW,
+    Sites,
+    arrival_next,
+    queue_next,
+)
 from sim.spatial.control.kernel.settings import AvoidLaw, DriveLaw
 from sim.spatial.control.kernel.steering import (
     Fleet,
@@ -82,12 +91,13 @@ def run_period(
     Returns:
         (status, changes of the follower's arrays (waypoints passed, widths refined), any
         robot steered, yields to stop, robots past where they were stuck, proximity capped,
-        distance, quiet): ``status`` is ``DONE``, ``EVENTS`` (the first
+        distance, site_next, queue_next): ``status`` is ``DONE``, ``EVENTS`` (the first
         half is done; ``wish.stop``, ``wish.past`` and the schedule say what to handle) or
         ``MAKE_WAY`` (``out`` push); ``capped`` and ``distance`` as ``commands.proximity``
-        returns them when it ran; ``quiet``: the arrival check or the site queues were due
-        and had nothing to do (``quiet.arrival_quiet``, ``quiet.queue_quiet``): the caller
-        sets the next time of those due to ``t``, as they would have.
+        returns them when it ran; ``site_next``, ``queue_next``: the arrival check, the site
+        queues were due and had nothing to do but set their next time, of this kind
+        (``quiet.NOW``, ``LATER``, ``NEVER``: ``quiet.arrival_next``, ``quiet.queue_next``),
+        which the caller sets; ``quiet.ACTS`` otherwise.
     """
     avoid, n_backoff, n_yield, n_steer, recovering = schedule[:5]
     stuck_s, site_s, prox_s, queue_s, end_s, deadline_s = schedule[5:]
@@ -98,7 +108,8 @@ def run_period(
     m = poses.z.shape[0]
     k, e = orca.max_neighbours, edges.e0.shape[0]
     work = new_work(m, k, orca, e, kept[0], push, blocker, near, kept[1], kept[2])
-    passed, steering, stops, pasts, quiet = 0, False, 0, 0, False
+    passed, steering, stops, pasts = 0, False, 0, 0
+    site_next, queue_kind = ACTS, ACTS
     if stage == START:
         if read:
             read_poses(pose, fleet, poses)
@@ -123,11 +134,14 @@ def run_period(
         arrival, queue = steering and t >= site_s, avoid and t >= queue_s
         if not due and (arrival or queue):  # Python acts only if one of them has work
             sites = Sites(*sites_t)
-            quiet = not arrival or (avoid and arrival_quiet(fleet, poses.z, wish.go, sites))
-            quiet = quiet and (not queue or queue_quiet(t, fleet, sites))
-            due = not quiet
+            if arrival:
+                site_next = arrival_next(fleet, poses.z, wish.go, sites, avoid)
+                due = site_next == ACTS
+            if queue and not due:
+                queue_kind = queue_next(t, fleet, sites)
+                due = queue_kind == ACTS
         if due:
-            return EVENTS, passed, steering, stops, pasts, False, np.inf, False
+            return EVENTS, passed, steering, stops, pasts, False, np.inf, ACTS, ACTS
         stage = COMMANDS
     capped, distance = False, np.inf
     if stage == COMMANDS:
@@ -154,7 +168,8 @@ def run_period(
             work,
         )
         if requests:
-            return MAKE_WAY, passed, steering, stops, pasts, capped, distance, quiet
+            nexts = site_next, queue_kind
+            return MAKE_WAY, passed, steering, stops, pasts, capped, distance, *nexts
     passed += finish(
         t,
         n_backoff > 0,
@@ -179,4 +194,4 @@ def run_period(
         w_out,
         q_out,
     )
-    return DONE, passed, steering, stops, pasts, capped, distance, quiet
+    return DONE, passed, steering, stops, pasts, capped, distance, site_next, queue_kind

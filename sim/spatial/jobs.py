@@ -375,8 +375,11 @@ class Jobs:
         if t - stalest > timeout:
             for j in (go & (t - f.t_progress_s > timeout)).nonzero()[0].tolist():
                 self.recover(j, t)
-            stalest = float(f.t_progress_s.min())
-        self.schedule.stuck_check_s = stalest + timeout
+        self.schedule.stuck_check_s = self.next_stuck_check_s()
+
+    def next_stuck_check_s(self) -> float:
+        """When the robot longest without progress could first be stuck, s."""
+        return float(self.fleet.t_progress_s.min()) + self.spatial.stuck_timeout_s
 
     def recover(self, j: int, t: float) -> None:
         """Robot j is stuck: wait for a robot at work that boxes it in; with collision avoidance

@@ -115,11 +115,10 @@ class CompiledControl:
                     jobs.replan(j, (z[j].real, z[j].imag), t)
         out = outputs_for(len(f.state))
         prox_s = sch.prox_check_s
-        status, passed, steering, stops, pasts, capped, distance, site_s, queue_s = self._call(
-            kernel.START, t, read, out
-        )
-        if site_s or queue_s:  # not both kernel.ACTS
-            self._quiet(t, site_s, queue_s)
+        res = self._call(kernel.START, t, read, out)
+        status, passed, steering, stops, pasts, capped, distance = res[:7]
+        if res[7] or res[8] or res[9]:  # not all kernel.ACTS
+            self._quiet(t, *res[7:])
         if status == kernel.EVENTS:
             if steering:
                 self._events(t, stops, pasts)
@@ -143,11 +142,14 @@ class CompiledControl:
         calm = calm and not (np.count_nonzero(v) or np.count_nonzero(w))
         sch.resting, sch.calm = calm and sch.calm, calm
 
-    def _quiet(self, t: float, site_kind: int, queue_kind: int) -> None:
-        """The arrival check and the site queues, found by the kernel with nothing to do but
-        set their next times (of the kind ``kernel.NOW``, ``LATER`` or ``NEVER``; ``ACTS``:
-        the check was not found so): set them, each with its check's own code."""
+    def _quiet(self, t: float, stuck_kind: int, site_kind: int, queue_kind: int) -> None:
+        """The stuck check, the arrival check and the site queues, found by the kernel with
+        nothing to do but set their next times (of the kind ``kernel.NOW``, ``LATER`` or
+        ``NEVER``; ``ACTS``: the check was not found so): set them, each with its check's own
+        code."""
         p, kernel = self.parts, self.kernel_
+        if stuck_kind == kernel.LATER:
+            p.schedule.stuck_check_s = p.jobs.next_stuck_check_s()
         if site_kind == kernel.NOW:
             p.schedule.site_check_s = t
         elif site_kind == kernel.LATER:

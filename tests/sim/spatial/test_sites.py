@@ -85,7 +85,7 @@ def compiled_quiet_test_agrees(monkeypatch):
             tol_m=0.0, zone_m=0.0, room_m=0.0,  # the arrival test's, not read by the queue's
             site=f.site, service=self.service, admitted=self.admitted, holding=self.holding,
             slotted=self.slotted, blocked=self.blocked, held=self.held, broken=self.broken,
-            replan=f.replan,
+            replan=f.replan, stuck_timeout_s=0.0,  # the stuck test's, not read
         )  # fmt: skip
         kind = compiled_quiet.queue_next(t, Fleet(*fleet_of(f)), sites)
         before = None if kind == compiled_quiet.ACTS else _queue_state(self)

@@ -132,7 +132,7 @@ def warm_up() -> None:
     schedule = (True, 1, 1, 2, True, -np.inf, -np.inf, -np.inf, -np.inf, np.inf, np.inf)
     edges, shapes = edges_of(follower), shapes_of(follower)
     flags = [np.zeros(2, dtype=bool) for _ in range(6)]  # admitted .. broken (views.sites_of)
-    sites = (1.5, 1.0, 0.1, 0.7, 0.55, fleet.site, fleet.site.copy(), *flags, fleet.replan)
+    sites = (1.5, 1.0, 0.1, 0.7, 0.55, fleet.site, fleet.site.copy(), *flags, fleet.replan, 5.0)
     for stage in (kernel.START, kernel.COMMANDS, kernel.FINISH):
         out = outputs_for(2)
         kernel.run_period(

@@ -1,9 +1,9 @@
 """The compiled control period's one entry point: both halves in one call unless an event fires.
 
 :func:`run_period` runs the first half (``steering.steer_all``) and, when nothing needs Python
-(no yield ends, no robot gets past where it was stuck, the stuck check, the end of work and the
-deadlines not due; the arrival check and the site queues either not due or with nothing to do
-but set their next times: ``quiet``), the second half (``commands.commands``,
+(no yield ends, no robot gets past where it was stuck, the end of work and the deadlines not
+due; the stuck check, the arrival check and the site queues either not due or with nothing to
+do but set their next times: ``quiet``), the second half (``commands.commands``,
 ``commands.finish``) in the same call. Otherwise it returns at the first point where Python
 must act, and the caller calls again from the next stage: ``COMMANDS`` after the events,
 ``FINISH`` after a make-way request.
@@ -29,6 +29,7 @@ from sim.spatial.control.kernel.quiet import (  # noqa: F401 (NOW, LATER, NEVER:
     Sites,
     arrival_next,
     queue_next,
+    stuck_next,
 )
 from sim.spatial.control.kernel.settings import AvoidLaw, DriveLaw
 from sim.spatial.control.kernel.steering import (
@@ -91,13 +92,13 @@ def run_period(
     Returns:
         (status, changes of the follower's arrays (waypoints passed, widths refined), any
         robot steered, yields to stop, robots past where they were stuck, proximity capped,
-        distance, site_next, queue_next): ``status`` is ``DONE``, ``EVENTS`` (the first
-        half is done; ``wish.stop``, ``wish.past`` and the schedule say what to handle) or
-        ``MAKE_WAY`` (``out`` push); ``capped`` and ``distance`` as ``commands.proximity``
-        returns them when it ran; ``site_next``, ``queue_next``: the arrival check, the site
-        queues were due and had nothing to do but set their next time, of this kind
-        (``quiet.NOW``, ``LATER``, ``NEVER``: ``quiet.arrival_next``, ``quiet.queue_next``),
-        which the caller sets; ``quiet.ACTS`` otherwise.
+        distance, stuck_next, site_next, queue_next): ``status`` is ``DONE``, ``EVENTS`` (the
+        first half is done; ``wish.stop``, ``wish.past`` and the schedule say what to handle)
+        or ``MAKE_WAY`` (``out`` push); ``capped`` and ``distance`` as ``commands.proximity``
+        returns them when it ran; ``stuck_next``, ``site_next``, ``queue_next``: the stuck
+        check, the arrival check, the site queues were due and had nothing to do but set their
+        next time, of this kind (``quiet.NOW``, ``LATER``, ``NEVER``: ``quiet.stuck_next``,
+        ``arrival_next``, ``queue_next``), which the caller sets; ``quiet.ACTS`` otherwise.
     """
     avoid, n_backoff, n_yield, n_steer, recovering = schedule[:5]
     stuck_s, site_s, prox_s, queue_s, end_s, deadline_s = schedule[5:]
@@ -109,7 +110,7 @@ def run_period(
     k, e = orca.max_neighbours, edges.e0.shape[0]
     work = new_work(m, k, orca, e, kept[0], push, blocker, near, kept[1], kept[2])
     passed, steering, stops, pasts = 0, False, 0, 0
-    site_next, queue_kind = ACTS, ACTS
+    stuck_kind, site_next, queue_kind = ACTS, ACTS, ACTS
     if stage == START:
         if read:
             read_poses(pose, fleet, poses)
@@ -126,22 +127,26 @@ def run_period(
             law,
             wish,
         )
-        due = stops > 0 or pasts > 0 or (steering and t > stuck_s)
+        due = stops > 0 or pasts > 0
         # Jobs.end_due acts on exactly these three (the site queues, ends of work, deadlines);
         # a rule added there must be added here (the parity test, which calls it every
         # period on the numpy side, would see the difference)
         due = due or t + 1e-9 >= end_s or t > deadline_s
+        stuck = steering and t > stuck_s
         arrival, queue = steering and t >= site_s, avoid and t >= queue_s
-        if not due and (arrival or queue):  # Python acts only if one of them has work
+        if not due and (stuck or arrival or queue):  # Python acts only if one has work
             sites = Sites(*sites_t)
-            if arrival:
+            if stuck:
+                stuck_kind = stuck_next(fleet, t, sites)
+                due = stuck_kind == ACTS
+            if arrival and not due:
                 site_next = arrival_next(fleet, poses.z, wish.go, sites, avoid)
                 due = site_next == ACTS
             if queue and not due:
                 queue_kind = queue_next(t, fleet, sites)
                 due = queue_kind == ACTS
         if due:
-            return EVENTS, passed, steering, stops, pasts, False, np.inf, ACTS, ACTS
+            return EVENTS, passed, steering, stops, pasts, False, np.inf, ACTS, ACTS, ACTS
         stage = COMMANDS
     capped, distance = False, np.inf
     if stage == COMMANDS:
@@ -168,8 +173,10 @@ def run_period(
             work,
         )
         if requests:
-            nexts = site_next, queue_kind
-            return MAKE_WAY, passed, steering, stops, pasts, capped, distance, *nexts
+            return (
+                MAKE_WAY, passed, steering, stops, pasts, capped, distance,
+                stuck_kind, site_next, queue_kind,
+            )  # fmt: skip
     passed += finish(
         t,
         n_backoff > 0,
@@ -194,4 +201,7 @@ def run_period(
         w_out,
         q_out,
     )
-    return DONE, passed, steering, stops, pasts, capped, distance, site_next, queue_kind
+    return (
+        DONE, passed, steering, stops, pasts, capped, distance,
+        stuck_kind, site_next, queue_kind,
+    )  # fmt: skip

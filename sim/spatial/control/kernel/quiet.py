@@ -1,14 +1,18 @@
-"""Whether the arrival check and the site queues have anything to do this period, compiled.
+"""Whether the stuck check, the arrival check and the site queues have anything to do this
+period, compiled.
 
-Two checks run on a schedule of their own: the arrival check
-(``sim.spatial.control.arrival.arrive``) and, with collision avoidance on, the site queues
-(``sim.spatial.sites.Sites.queue``). While a robot drives near its site both are due every
+Three checks run on a schedule of their own: the stuck check (``Jobs.check_stuck``), the
+arrival check (``sim.spatial.control.arrival.arrive``) and, with collision avoidance on, the
+site queues (``sim.spatial.sites.Sites.queue``). The stuck check is due when the robot longest
+without progress could first be stuck; it does nothing else if that robot has made progress
+since (:func:`stuck_next`). While a robot drives near its site both are due every
 period; while none is near, each is due when the nearest could first come near. Most of those
 periods neither does anything but set its next time. :func:`arrival_next` and
 :func:`queue_next` answer, inside the control period, whether this is such a period and which
 kind of next time the check would set: now (``NOW``), never (``NEVER``), or a later time
 (``LATER``), which the caller computes with the check's own code
-(``arrival.next_arrival_check_s``, ``Sites.next_check_s``), so it is the very same number. If
+(``Jobs.next_stuck_check_s``, ``arrival.next_arrival_check_s``, ``Sites.later_check_s``),
+so it is the very same number. If
 every check due is such, the period runs through without stopping for Python.
 
 Each is its Python check's own test, element by element in the same arithmetic:
@@ -54,6 +58,7 @@ class Sites(NamedTuple):
             slot.
         blocked, held, broken, replan: (m,) waiting for a repair; held by the traffic rules;
             broken; to plan its path again.
+        stuck_timeout_s: a driving robot this long without progress is stuck, s.
     """
 
     queue_m: float
@@ -70,6 +75,7 @@ class Sites(NamedTuple):
     held: np.ndarray
     broken: np.ndarray
     replan: np.ndarray
+    stuck_timeout_s: float
 
 
 ACTS, NOW, LATER, NEVER = 0, 1, 2, 3  # what a check would do: act, or only set its next time
@@ -172,3 +178,15 @@ def queue_next(t: float, fleet: Fleet, s: Sites) -> int:
                 if gap < s.queue_m or _unsure(gap, s.queue_m):
                     return ACTS
     return NOW if any_close else LATER
+
+
+@njit(cache=True)
+def stuck_next(fleet: Fleet, t: float, s: Sites) -> int:
+    """What ``Jobs.check_stuck`` would do: ``ACTS`` if some robot has been without progress
+    for over ``stuck_timeout_s`` (one driving may recover), else only set its next check to
+    when the stalest could be (``LATER``). The same minimum and subtraction, so exact."""
+    stalest = np.inf
+    for j in range(fleet.t_progress_s.shape[0]):
+        if fleet.t_progress_s[j] < stalest:
+            stalest = fleet.t_progress_s[j]
+    return ACTS if t - stalest > s.stuck_timeout_s else LATER

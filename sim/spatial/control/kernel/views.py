@@ -50,6 +50,7 @@ def sites_of(parts) -> tuple:
         sites.held,
         sites.broken,
         f.replan,
+        float(parts.jobs.spatial.stuck_timeout_s),
     )
 
 

@@ -1,6 +1,7 @@
 """The compiled control period's quiet tests (``sim.spatial.control.kernel.quiet``): when they
-say the arrival check and the site queues have nothing to do but set their next times, the
-Python checks indeed change nothing else, and the times the period sets are theirs.
+say the stuck check, the arrival check and the site queues have nothing to do but set their
+next times, the Python checks indeed change nothing else, and the times the period sets are
+theirs.
 
 The runs below check every period the kernel ran through that way: right after the period set
 the next times (``CompiledControl._quiet``), the Python checks it skipped run on the world as
@@ -45,16 +46,21 @@ def _state(world) -> dict:
 def _watch(monkeypatch) -> dict:
     """Check every period the kernel found quiet (see above); count them by check and by the
     kind of next time set."""
-    seen = {"arrival": 0, "queue": 0, "now": 0, "later": 0, "never": 0}
+    seen = {"stuck": 0, "arrival": 0, "queue": 0, "now": 0, "later": 0, "never": 0}
     inner = compiled.CompiledControl._quiet
 
-    def quiet(self, t, site_kind, queue_kind):
-        inner(self, t, site_kind, queue_kind)
+    def quiet(self, t, stuck_kind, site_kind, queue_kind):
+        inner(self, t, stuck_kind, site_kind, queue_kind)
         p, world = self.parts, seen["world"]
         before = _state(world)
+        go = self.wishes_[3].copy()
+        if stuck_kind != kq.ACTS:
+            p.jobs.check_stuck(go, t)
+            seen["stuck"] += 1
+            seen[KINDS[stuck_kind]] += 1
         if site_kind != kq.ACTS:
             m = len(p.fleet.state)
-            arrive(p, self.poses_[0].copy(), self.wishes_[3].copy(), np.ones(m), np.ones(m), t)
+            arrive(p, self.poses_[0].copy(), go, np.ones(m), np.ones(m), t)
             seen["arrival"] += 1
             seen[KINDS[site_kind]] += 1
         if queue_kind != kq.ACTS:
@@ -93,7 +99,7 @@ def test_a_period_found_quiet_changes_nothing_in_the_python_checks(
     run_protocol(scenario, stream, alloc, world, cost, rng, trace=False)
     # not vacuous: each check was found quiet often, both with a robot near (next time: now)
     # and with none (a later time)
-    assert seen["arrival"] >= 100 and seen["later"] >= 100
+    assert seen["stuck"] >= 50 and seen["arrival"] >= 100 and seen["later"] >= 100
     if avoidance == "orca":
         assert seen["queue"] >= 100 and seen["now"] >= 100
     else:
@@ -176,7 +182,7 @@ def test_with_nobody_driving_near_a_site_the_queue_is_quiet_until_the_nearest_co
     w.jobs.sites.admitted[1] = True
     t = at(w, 4.0)
     assert _queue_next(w, t) == kq.LATER
-    w.control._quiet(t, kq.ACTS, kq.LATER)
+    w.control._quiet(t, kq.ACTS, kq.ACTS, kq.LATER)
     nxt = w.jobs.sites.queue_check_s
     c = w.control.parts.controller
     expected = t + (8.0 - QUEUE_M) / (c.speed_bound * w.follower.v_max_mps)
@@ -192,7 +198,7 @@ def test_with_no_robot_driving_the_queue_is_quiet_for_good():
     w = orca_world([(18.0, 1.0), (2.0, 5.0)], control="compiled")
     t = at(w, 4.0)
     assert _queue_next(w, t) == kq.NEVER
-    w.control._quiet(t, kq.ACTS, kq.NEVER)
+    w.control._quiet(t, kq.ACTS, kq.ACTS, kq.NEVER)
     assert w.jobs.sites.queue_check_s == math.inf
     w.jobs.sites.queue_check_s = -np.inf
     w.jobs.sites.queue(t)
@@ -212,7 +218,7 @@ def test_with_no_robot_in_an_arrival_zone_the_arrival_check_is_quiet_until_one_c
     assert _arrival_next(w) == kq.LATER
     w.control.poses_[0][:] = w.fleet.last_z_m
     w.control.wishes_[3][:] = w.fleet.state == DRIVING
-    w.control._quiet(t, kq.LATER, kq.ACTS)
+    w.control._quiet(t, kq.ACTS, kq.LATER, kq.ACTS)
     nxt = w.schedule.site_check_s
     p = w.control.parts
     zone, c = p.arrive_tol_m + 2 * p.reach_m, p.controller
@@ -296,3 +302,30 @@ def test_a_robot_standing_a_room_off_the_service_point_to_the_nanometre_is_left_
     for off, kind in ((room, kq.ACTS), (room + 1e-10, kq.ACTS), (room + 1e-6, kq.NOW)):
         w.fleet.last_z_m[1] = SITE + 1j * off
         assert _arrival_next(w) == kind, off
+
+
+@pytest.mark.parametrize("stale", [0, 1])
+@pytest.mark.parametrize(
+    ("without_progress_s", "kind"),
+    [(4.0, kq.LATER), (5.0, kq.LATER), (5.5, kq.ACTS)],
+)
+def test_the_stuck_check_acts_only_past_the_timeout(without_progress_s, kind, stale):
+    """Robot ``stale`` drives without progress for 4, 5 (exactly ``stuck_timeout_s``: not yet
+    stuck, as ``check_stuck`` compares with ``>``) or 5.5 s. Up to the timeout the check only
+    looks again when it could be stuck, and the period sets the very time ``check_stuck`` sets;
+    past it the robot recovers, so the kernel leaves the check to Python."""
+    w = orca_world([(18.0, 1.0), (2.0, 5.0)], control="compiled", stuck_timeout_s=5.0)
+    give(w, [stale], [(10.0, 5.0)])
+    t = at(w, 8.0)
+    f = w.fleet
+    f.t_progress_s[:] = np.inf
+    f.t_progress_s[stale] = t - without_progress_s
+    fleet, sites = Fleet(*fleet_of(f)), kq.Sites(*sites_of(w.control.parts))
+    assert kq.stuck_next(fleet, t, sites) == kind
+    if kind == kq.LATER:
+        w.control._quiet(t, kq.LATER, kq.ACTS, kq.ACTS)
+        nxt = w.schedule.stuck_check_s
+        assert nxt == t - without_progress_s + 5.0
+        w.schedule.stuck_check_s = -np.inf
+        w.jobs.check_stuck(f.state == DRIVING, t)
+        assert w.schedule.stuck_check_s == nxt and w.jobs.fired["backoff"] == 0

@@ -233,14 +233,17 @@ class Sites:
         cand = self.place_points(site)
         keeping = self.admitted | (f.state == WORKING)
         keeping[j] = False
-        kept = f.site[keeping]
-        standing = (f.state != DRIVING).nonzero()[0]
         room = 2.0 * r + 0.5 * self.rules.slot_gap_m
+        # only a point this near the site in x and in y can be within room of one of its places
+        # (each within a slot ring of it; the margin is far above any rounding)
+        lim = 2.0 * r + self.rules.slot_gap_m + room + 1e-6
+        kept = _within(f.site[keeping], site, lim)
+        standing = _within(z[f.state != DRIVING], site, lim)
         taken = np.zeros(len(cand), dtype=bool)
         if len(kept):
             taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < room
         if len(standing):
-            taken |= np.abs(z[standing][:, None] - cand[None, :]).min(axis=0) < room
+            taken |= np.abs(standing[:, None] - cand[None, :]).min(axis=0) < room
         if taken.all():
             return None
         free = (~taken).nonzero()[0]
@@ -418,3 +421,9 @@ class Sites:
         self.holding = np.array(arrays.get("holding", np.zeros(m)), dtype=bool)
         self.hold_since_s = np.array(arrays.get("hold_since_s", np.full(m, np.inf)), dtype=float)
         self.queue_check_s = float(arrays.get("queue_check_s", -np.inf))
+
+
+def _within(points: np.ndarray, centre: complex, lim: float) -> np.ndarray:
+    """The ``points`` (x + iy) within ``lim`` of ``centre`` in x and in y, in their order."""
+    d = points - centre
+    return points[(np.abs(d.real) <= lim) & (np.abs(d.imag) <= lim)]

@@ -857,3 +857,45 @@ def test_step_clear_skips_a_broken_robot_and_serves_the_next():
     w.jobs.sites.step_clear([0, 1], 3.0)  # robot 0 cannot move; robot 1 still steps clear
     assert w.fleet.yielding.tolist() == [False, True]
     assert w.follower.last[0] == -1 and len(waypoints(w, 1)) == 2
+
+
+def _free_place_by_brute_force(s: Sites, j: int) -> complex | None:
+    """``Sites.free_place`` as its docstring says, every robot tested against every place."""
+    f, r = s.fleet, s.controller.radius_m
+    cand = s.place_points(s.service[j])
+    keeping = s.admitted | (f.state == WORKING)
+    keeping[j] = False
+    others = np.concatenate([f.site[keeping], f.last_z_m[f.state != DRIVING]])
+    room = 2.0 * r + 0.5 * SLOT_GAP_M
+    taken = [bool((np.abs(others - c) < room).any()) for c in cand]
+    if all(taken):
+        return None
+    free = [k for k, t in enumerate(taken) if not t]
+    if free[0] == 0:
+        return complex(cand[0])
+    return complex(cand[min(free, key=lambda k: abs(cand[k] - f.last_z_m[j]))])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_free_place_is_what_testing_every_robot_against_every_place_gives(seed):
+    """Twelve robots at random round SITE, some at work, idle, let in or driving, and a few
+    exactly a room off one of its places, where rounding decides: ``free_place`` (which looks
+    only at robots near the site) gives what testing every robot gives, for every robot."""
+    rng = np.random.default_rng(seed)
+    starts = [(2.0 + 1.5 * k, 9.0) for k in range(12)]
+    w = orca_world(starts)
+    give(w, list(range(12)), [(10.0, 5.0)] * 12)
+    f, s = w.fleet, w.jobs.sites
+    room = 2 * 0.25 + 0.5 * SLOT_GAP_M
+    places = s.place_points(SITE)
+    for trial in range(20):
+        f.last_z_m[:] = SITE + rng.uniform(-2.5, 2.5, 12) + 1j * rng.uniform(-2.5, 2.5, 12)
+        edge = rng.choice(12, 3, replace=False)  # a room off a place, in a random direction
+        f.last_z_m[edge] = places[rng.integers(len(places), size=3)] + room * np.exp(
+            2j * np.pi * rng.uniform(size=3)
+        )
+        f.state[:] = rng.choice([DRIVING, WORKING, IDLE], 12)
+        s.admitted[:] = rng.uniform(size=12) < 0.3
+        f.site[:] = np.where(s.admitted, f.last_z_m + 0.3, SITE)
+        for j in range(12):
+            assert s.free_place(j) == _free_place_by_brute_force(s, j), (trial, j)

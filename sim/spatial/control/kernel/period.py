@@ -84,18 +84,18 @@ def run_period(
             edges_t, shapes_t: the fields of ``Fleet``, ``Follower``, ``Poses``, ``Wishes``,
             ``DriveLaw``, ``AvoidLaw``, ``Edges``, ``Shapes`` in order.
         kept: (orca flags, seen_z, seen_m), kept between calls (``commands.Work``).
-        sites_t: the fields of ``quiet.Sites``: what the arrival check's and the site queues'
-            quiet tests read.
+        sites_t: the fields of ``quiet.Sites``: what the stuck check's, the arrival check's and
+            the site queues' quiet tests read.
         out: (v, w, q, blocker, near, push), (m,) each, written: the commands (m/s, rad/s,
             m/s), the robot in each one's way, its distance, the make-way requests.
 
     Returns:
         (status, changes of the follower's arrays (waypoints passed, widths refined), any
         robot steered, yields to stop, robots past where they were stuck, proximity capped,
-        distance, stuck_next, site_next, queue_next): ``status`` is ``DONE``, ``EVENTS`` (the
+        distance, stuck_kind, site_kind, queue_kind): ``status`` is ``DONE``, ``EVENTS`` (the
         first half is done; ``wish.stop``, ``wish.past`` and the schedule say what to handle)
         or ``MAKE_WAY`` (``out`` push); ``capped`` and ``distance`` as ``commands.proximity``
-        returns them when it ran; ``stuck_next``, ``site_next``, ``queue_next``: the stuck
+        returns them when it ran; ``stuck_kind``, ``site_kind``, ``queue_kind``: the stuck
         check, the arrival check, the site queues were due and had nothing to do but set their
         next time, of this kind (``quiet.NOW``, ``LATER``, ``NEVER``: ``quiet.stuck_next``,
         ``arrival_next``, ``queue_next``), which the caller sets; ``quiet.ACTS`` otherwise.
@@ -110,7 +110,7 @@ def run_period(
     k, e = orca.max_neighbours, edges.e0.shape[0]
     work = new_work(m, k, orca, e, kept[0], push, blocker, near, kept[1], kept[2])
     passed, steering, stops, pasts = 0, False, 0, 0
-    stuck_kind, site_next, queue_kind = ACTS, ACTS, ACTS
+    stuck_kind, site_kind, queue_kind = ACTS, ACTS, ACTS
     if stage == START:
         if read:
             read_poses(pose, fleet, poses)
@@ -140,8 +140,8 @@ def run_period(
                 stuck_kind = stuck_next(fleet, t, sites)
                 due = stuck_kind == ACTS
             if arrival and not due:
-                site_next = arrival_next(fleet, poses.z, wish.go, sites, avoid)
-                due = site_next == ACTS
+                site_kind = arrival_next(fleet, poses.z, wish.go, sites, avoid)
+                due = site_kind == ACTS
             if queue and not due:
                 queue_kind = queue_next(t, fleet, sites)
                 due = queue_kind == ACTS
@@ -175,7 +175,7 @@ def run_period(
         if requests:
             return (
                 MAKE_WAY, passed, steering, stops, pasts, capped, distance,
-                stuck_kind, site_next, queue_kind,
+                stuck_kind, site_kind, queue_kind,
             )  # fmt: skip
     passed += finish(
         t,
@@ -203,5 +203,5 @@ def run_period(
     )
     return (
         DONE, passed, steering, stops, pasts, capped, distance,
-        stuck_kind, site_next, queue_kind,
+        stuck_kind, site_kind, queue_kind,
     )  # fmt: skip

@@ -4,19 +4,20 @@ period, compiled.
 Three checks run on a schedule of their own: the stuck check (``Jobs.check_stuck``), the
 arrival check (``sim.spatial.control.arrival.arrive``) and, with collision avoidance on, the
 site queues (``sim.spatial.sites.Sites.queue``). The stuck check is due when the robot longest
-without progress could first be stuck; it does nothing else if that robot has made progress
-since (:func:`stuck_next`). While a robot drives near its site both are due every
-period; while none is near, each is due when the nearest could first come near. Most of those
-periods neither does anything but set its next time. :func:`arrival_next` and
-:func:`queue_next` answer, inside the control period, whether this is such a period and which
-kind of next time the check would set: now (``NOW``), never (``NEVER``), or a later time
-(``LATER``), which the caller computes with the check's own code
-(``Jobs.next_stuck_check_s``, ``arrival.next_arrival_check_s``, ``Sites.later_check_s``),
-so it is the very same number. If
-every check due is such, the period runs through without stopping for Python.
+without progress could first be stuck. The arrival check and the site queues are due every
+period while a robot drives near its site and, while none is near, when the nearest could
+first come near. Most of those periods a check does nothing but set its next time.
+:func:`stuck_next`, :func:`arrival_next` and :func:`queue_next` answer, inside the control
+period, whether this is such a period and which kind of next time the check would set: now
+(``NOW``), never (``NEVER``), or a later time (``LATER``), which the caller computes with the
+check's own code (``Jobs.next_stuck_check_s``, ``arrival.next_arrival_check_s``,
+``Sites.later_check_s``), so it is the very same number. If every check due is such, the
+period runs through without stopping for Python.
 
 Each is its Python check's own test, element by element in the same arithmetic:
 
+- the stuck check does nothing else while no robot has been without progress for over
+  ``stuck_timeout_s`` (the same minimum and subtraction: exact); its next time is later;
 - the arrival check does nothing else when no robot driving to its site is within
   ``arrive_tol_m`` of it (none starts work) and, with avoidance on, every one in the arrival
   zone already has a slot, holds in a queue or before a passage, or finds no standing robot on
@@ -44,7 +45,7 @@ from sim.spatial.control.kernel.steering import DRIVING, IDLE, Fleet
 
 
 class Sites(NamedTuple):
-    """What the two checks read besides the fleet and the poses (``views.sites_of``).
+    """What the quiet tests read besides the fleet and the poses (``views.sites_of``).
 
     Attributes:
         queue_m, crowd_m: ``[spatial.queue]``'s distances, m.

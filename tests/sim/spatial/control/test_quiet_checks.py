@@ -313,7 +313,7 @@ def test_the_stuck_check_acts_only_past_the_timeout(without_progress_s, kind, st
     """Robot ``stale`` drives without progress for 4, 5 (exactly ``stuck_timeout_s``: not yet
     stuck, as ``check_stuck`` compares with ``>``) or 5.5 s. Up to the timeout the check only
     looks again when it could be stuck, and the period sets the very time ``check_stuck`` sets;
-    past it the robot recovers, so the kernel leaves the check to Python."""
+    past it the kernel leaves the check to Python, which has the robot recover."""
     w = orca_world([(18.0, 1.0), (2.0, 5.0)], control="compiled", stuck_timeout_s=5.0)
     give(w, [stale], [(10.0, 5.0)])
     t = at(w, 8.0)
@@ -329,3 +329,6 @@ def test_the_stuck_check_acts_only_past_the_timeout(without_progress_s, kind, st
         w.schedule.stuck_check_s = -np.inf
         w.jobs.check_stuck(f.state == DRIVING, t)
         assert w.schedule.stuck_check_s == nxt and w.jobs.fired["backoff"] == 0
+    else:  # Python's check does act: a recovery rule fires for the robot
+        w.jobs.check_stuck(f.state == DRIVING, t)
+        assert sum(w.jobs.fired.values()) + sum(w.jobs.jams.fired.values()) >= 1

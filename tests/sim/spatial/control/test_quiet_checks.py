@@ -106,7 +106,7 @@ def test_a_period_found_quiet_changes_nothing_in_the_python_checks(
         assert seen["queue"] == 0 and seen["now"] == 0  # no queues; in the zone: Python decides
 
 
-# ---- scenes: each branch of the two tests, against what the Python check does ------------
+# ---- scenes: each branch of the three tests, against what the Python check does ----------
 
 
 def _queue_next(w, t: float) -> int:

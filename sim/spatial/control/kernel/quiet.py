@@ -98,6 +98,12 @@ def _unsure(gap: float, limit: float) -> bool:
 
 
 @njit(cache=True)
+def _maybe_within(gap: float, limit: float) -> bool:
+    """True unless numpy surely sees ``gap >= limit`` (``gap < limit``, or :func:`_unsure`)."""
+    return gap < limit + UNSURE_M
+
+
+@njit(cache=True)
 def arrival_next(fleet: Fleet, z: np.ndarray, go: np.ndarray, s: Sites, avoid: bool) -> int:
     """What ``arrive`` would do (``z`` the poses, ``go`` the robots driving to a site,
     ``avoid``: collision avoidance on): ``ACTS``, or only set its next check to now (``NOW``:
@@ -119,8 +125,7 @@ def arrival_next(fleet: Fleet, z: np.ndarray, go: np.ndarray, s: Sites, avoid: b
             continue
         for k in range(m):  # a standing robot on its service point: take_slots acts
             if fleet.state[k] != DRIVING and not fleet.yielding[k]:
-                gap_k = _gap(z[k], s.site[j])
-                if gap_k < s.room_m or _unsure(gap_k, s.room_m):
+                if _maybe_within(_gap(z[k], s.site[j]), s.room_m):
                     return ACTS
     return NOW if in_zone else LATER
 
@@ -164,20 +169,16 @@ def queue_next(t: float, fleet: Fleet, s: Sites) -> int:
             for h in range(m):
                 if not s.holding[h]:
                     continue
-                same, crowd = _gap(s.service[j], s.service[h]), _gap(z[j], z[h])
-                if _unsure(same, 1e-6) or _unsure(crowd, s.crowd_m):
-                    return ACTS
-                if same < 1e-6 and crowd < s.crowd_m:
+                same = _maybe_within(_gap(s.service[j], s.service[h]), 1e-6)
+                if same and _maybe_within(_gap(z[j], z[h]), s.crowd_m):
                     return ACTS
     for i in range(m):  # Sites.clear_loiterers: an idle robot near a site robots come to
         if fleet.state[i] != IDLE or fleet.yielding[i] or s.broken[i]:
             continue
         for c in range(m):
             coming = driving[c] and ((s.admitted[c] and close[c]) or s.holding[c])
-            if coming:
-                gap = _gap(z[i], s.service[c])
-                if gap < s.queue_m or _unsure(gap, s.queue_m):
-                    return ACTS
+            if coming and _maybe_within(_gap(z[i], s.service[c]), s.queue_m):
+                return ACTS
     return NOW if any_close else LATER
 
 

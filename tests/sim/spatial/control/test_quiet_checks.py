@@ -332,3 +332,26 @@ def test_the_stuck_check_acts_only_past_the_timeout(without_progress_s, kind, st
     else:  # Python's check does act: a recovery rule fires for the robot
         w.jobs.check_stuck(f.state == DRIVING, t)
         assert sum(w.jobs.fired.values()) + sum(w.jobs.jams.fired.values()) >= 1
+
+
+@pytest.mark.parametrize(
+    ("off_m", "site2", "quiet"),
+    [(0.8, (10.0, 5.0), False), (1.2, (10.0, 5.0), True), (0.8, (16.0, 8.0), True)],
+)
+def test_a_robot_near_one_holding_for_the_same_site_joins_its_queue(off_m, site2, quiet):
+    """Robot 1 holds in SITE's queue 3 m off (beyond queue_m) while it backs off, so the queue
+    does not look at it; robot 2 comes for ``site2`` ``off_m`` beside it, beyond queue_m of its
+    site. Within crowd_m (1 m) and for SITE too, robot 2 joins the queue (``Sites.queue``
+    acts): not quiet. Farther, or for another site, nothing happens: quiet, the next check
+    later."""
+    w = orca_world([(18.0, 1.0), (2.0, 5.0), (2.0, 8.0)])
+    give(w, [1, 2], [(10.0, 5.0), site2])
+    t = at(w, 4.0)
+    f, s = w.fleet, w.jobs.sites
+    f.last_z_m[1] = SITE - 3.0
+    f.last_z_m[2] = SITE - 3.0 + 1j * off_m
+    s.holding[1], s.hold_since_s[1] = True, 1.0
+    f.backoff_until_s[1] = t + 5.0
+    assert _queue_next(w, t) == (kq.LATER if quiet else kq.ACTS)
+    s.queue(t)
+    assert bool(s.holding[2] or s.admitted[2]) is not quiet

@@ -38,30 +38,53 @@ class Grid(NamedTuple):
     order: np.ndarray
 
 
+USABLE_M = 1e300  # a coordinate of this size or more (or NaN) is binned in a corner cell
+
+
+@njit(cache=True)
+def _bin(f, n):
+    """``int(f)`` held to the columns (or rows) 0 .. n - 1 of a grid; NaN: 0. Converting NaN
+    or an infinity to an integer is undefined, so neither ever is."""
+    if not f >= 0.0:
+        return 0
+    if f >= n:
+        return n - 1
+    return int(f)
+
+
 @njit(cache=True)
 def build_grid(z, side_m):
-    """Bin the robots at ``z`` (x + iy, m) on cells of at least ``side_m`` (> 0)."""
+    """Bin the robots at ``z`` (x + iy, m) on cells of at least ``side_m`` (> 0; not > 0 or
+    NaN: one cell for all).
+
+    The grid spans the robots whose coordinates are finite and below ``USABLE_M``; any other
+    robot (a pose gone NaN or infinite) is binned in a cell at the grid's edge, so a broken
+    pose can make its neighbours wrong but never reads or writes outside the tables."""
     m = z.shape[0]
     x0, y0, x1, y1 = np.inf, np.inf, -np.inf, -np.inf
     for i in range(m):
-        x0, x1 = min(x0, z[i].real), max(x1, z[i].real)
-        y0, y1 = min(y0, z[i].imag), max(y1, z[i].imag)
-    if m == 0:
+        x, y = z[i].real, z[i].imag
+        if abs(x) < USABLE_M and abs(y) < USABLE_M:
+            x0, x1 = min(x0, x), max(x1, x)
+            y0, y1 = min(y0, y), max(y1, y)
+    if x0 > x1:  # no robot (or none usable)
         x0 = y0 = x1 = y1 = 0.0
-    side = side_m
+    side = side_m if side_m > 0.0 else np.inf
     limit = MAX_CELLS_PER_ROBOT * m + 16
     while True:
-        nx = int((x1 - x0) / side) + 1  # >= 0: truncation is the floor
-        ny = int((y1 - y0) / side) + 1
-        if nx * ny <= limit:
-            break
+        fx, fy = (x1 - x0) / side, (y1 - y0) / side  # finite: the span is below 2 USABLE_M
+        if fx < limit and fy < limit:
+            nx = int(fx) + 1  # >= 1: truncation is the floor
+            ny = int(fy) + 1
+            if nx * ny <= limit:
+                break
         side *= 2.0
     inv = 1.0 / side
     cell = np.empty(m, dtype=np.int64)
     start = np.zeros(nx * ny + 1, dtype=np.int64)
     for i in range(m):
-        cx = min(int((z[i].real - x0) * inv), nx - 1)
-        cy = min(int((z[i].imag - y0) * inv), ny - 1)
+        cx = _bin((z[i].real - x0) * inv, nx)
+        cy = _bin((z[i].imag - y0) * inv, ny)
         cell[i] = cy * nx + cx
         start[cell[i] + 1] += 1
     for c in range(nx * ny):
@@ -77,8 +100,8 @@ def build_grid(z, side_m):
 @njit(cache=True)
 def _cell_span(grid, x, y):
     """The first and last cell columns and rows round the cell of (x, y)."""
-    cx = min(int((x - grid.x0) * grid.inv), grid.nx - 1)
-    cy = min(int((y - grid.y0) * grid.inv), grid.ny - 1)
+    cx = _bin((x - grid.x0) * grid.inv, grid.nx)
+    cy = _bin((y - grid.y0) * grid.inv, grid.ny)
     return max(cx - 1, 0), min(cx + 1, grid.nx - 1), max(cy - 1, 0), min(cy + 1, grid.ny - 1)
 
 

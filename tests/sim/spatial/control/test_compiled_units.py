@@ -191,6 +191,65 @@ def test_k_nearest_are_a_stable_sort_of_all_robots_within_range():
             np.testing.assert_array_equal(idx[:count], want)
 
 
+def grid_holds_every_robot_once(grid, z):
+    """The grid's tables are whole: counts rising to m, ``order`` a permutation, and each
+    robot with a usable pose in the cell its coordinates give."""
+    m = len(z)
+    assert grid.nx >= 1 and grid.ny >= 1 and grid.nx * grid.ny <= 4 * m + 16
+    assert len(grid.start) == grid.nx * grid.ny + 1
+    assert grid.start[0] == 0 and grid.start[-1] == m and np.all(np.diff(grid.start) >= 0)
+    np.testing.assert_array_equal(np.sort(grid.order), np.arange(m))
+    for c in range(grid.nx * grid.ny):
+        for i in grid.order[grid.start[c] : grid.start[c + 1]]:
+            x, y = z[i].real, z[i].imag
+            if abs(x) < 1e300 and abs(y) < 1e300:
+                cx = min(int((x - grid.x0) * grid.inv), grid.nx - 1)
+                cy = min(int((y - grid.y0) * grid.inv), grid.ny - 1)
+                assert c == cy * grid.nx + cx
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        complex(np.nan, 3.0),
+        complex(2.0, np.nan),
+        complex(np.inf, 0.0),
+        complex(0, -np.inf),
+        complex(1e308, -1e308),
+        complex(5e299, 1.0),
+    ],
+)
+def test_a_broken_pose_cannot_take_the_grid_outside_its_tables(bad):
+    """A pose gone NaN, infinite or absurdly far (a hostile setting, a blown-up body) is binned
+    at the grid's edge: the tables stay whole, and the other robots' neighbours are theirs."""
+    rng = np.random.default_rng(7)
+    z = rng.uniform(0.0, 20.0, 40) + 1j * rng.uniform(0.0, 20.0, 40)
+    reach, k = 3.1, 10
+    clean = build_grid(z, reach)
+    broken = np.append(z, bad)
+    grid = build_grid(broken, reach)
+    grid_holds_every_robot_once(grid, broken)
+    idx, dist, scratch = np.zeros(k, np.int64), np.zeros(k), np.zeros(41, np.int64)
+    want_idx, want_dist = np.zeros(k, np.int64), np.zeros(k)
+    for i in range(40):
+        count = k_nearest(grid, broken, i, reach, k, idx, dist, scratch)
+        want = k_nearest(clean, z, i, reach, k, want_idx, want_dist, scratch)
+        np.testing.assert_array_equal(idx[:count], want_idx[:want])
+    k_nearest(grid, broken, 40, reach, k, idx, dist, scratch)  # the broken robot's own query
+
+
+@pytest.mark.parametrize("side", [5e-324, 1e-300, 0.0, -1.0, np.nan, np.inf])
+def test_any_cell_side_gives_a_whole_grid(side):
+    """A cell side too small to count cells in (their number overflows an integer), zero,
+    negative, NaN or infinite still gives whole tables: cells are widened, or one serves all."""
+    rng = np.random.default_rng(8)
+    z = rng.uniform(0.0, 25.0, 30) + 1j * rng.uniform(0.0, 9.0, 30)
+    grid = build_grid(z, side)
+    grid_holds_every_robot_once(grid, z)
+    if not side > 0.0:
+        assert grid.nx == grid.ny == 1
+
+
 def follower_with_boxes(rng: np.random.Generator, boxes: int) -> PathFollower:
     """A follower in a 40 m square with ``boxes`` random boxes (an edge grid from 48 edges)."""
     polys = []

@@ -38,7 +38,7 @@ class Grid(NamedTuple):
     order: np.ndarray
 
 
-USABLE_M = 1e300  # a coordinate of this size or more (or NaN) is binned in a corner cell
+USABLE_M = 1e300  # a robot with a coordinate this large (or NaN) is binned at the grid's edge
 
 
 @njit(cache=True)

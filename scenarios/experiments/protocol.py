@@ -10,6 +10,7 @@ it ran in.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
 from collections.abc import Sequence
@@ -36,7 +37,7 @@ from scenarios.experiments.metrics import (
     spatial_per_robot,
     summarize_run,
 )
-from scenarios.loader import load_scenario
+from scenarios.loader import load_scenario, read_toml, resolve
 from sim.scenario import Scenario
 from sim.scenario.overrides import apply_overrides
 from sim.tasks import TaskStream, load_stream
@@ -59,10 +60,18 @@ class RunSpec:
     stream_file: str = ""  # replay this stream instead of generating one
 
 
-@lru_cache(maxsize=32)
 def load_named(name: str) -> Scenario:
-    """A scenario by bundled name or path, loaded once per process (runs of a sweep share it)."""
-    return load_scenario(name)
+    """A scenario by bundled name or path, loaded once per process and file content (runs of
+    a sweep share it; a file written again between runs is read again)."""
+    path = resolve(name)
+    raw = read_toml(path)[1]  # one line for a file that cannot be read
+    return _load_content(str(path), hashlib.sha256(raw).hexdigest())
+
+
+@lru_cache(maxsize=32)
+def _load_content(path: str, sha256: str) -> Scenario:
+    """``load_scenario(path)``, once per path and content (``sha256`` of the file)."""
+    return load_scenario(path)
 
 
 def check_cost(scenario: Scenario, cost: str) -> None:

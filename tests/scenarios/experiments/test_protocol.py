@@ -217,3 +217,19 @@ def test_resume_with_robot_faults_equals_the_straight_run(tmp_path, monkeypatch)
 def test_parallel_equals_serial():
     specs = [RunSpec("paper", a, seed=s) for a in ("ql", "expt") for s in (0, 1)]
     assert run_many(specs, workers=2, progress=False) == run_many(specs, workers=1, progress=False)
+
+
+def test_a_scenario_file_written_again_is_read_again(tmp_path):
+    """``load_named`` shares a scenario between the runs of a process only while its file
+    holds the same text: a file written again at the same path (a notebook's edit, a test
+    writing case after case) is read again, and an unchanged one is the same object."""
+    text = Path(protocol.load_scenario("paper").source).read_text()
+    path = tmp_path / "mine.toml"
+    path.write_text(text.replace("n_sets = 45", "n_sets = 44", 1))
+    first = protocol.load_named(str(path))
+    assert first.stream.n_sets == 44
+    assert protocol.load_named(str(path)) is first
+    path.write_text(text.replace("n_sets = 45", "n_sets = 43", 1))
+    assert protocol.load_named(str(path)).stream.n_sets == 43
+    path.write_text(text.replace("n_sets = 45", "n_sets = 44", 1))
+    assert protocol.load_named(str(path)) is first

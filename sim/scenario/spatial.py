@@ -100,8 +100,8 @@ class LawSpec(_Section):
     heading_gain: float = _positive(
         2.5, "turn rate commanded per radian of heading error", 100, "1/s"
     )
-    turn_in_place_deg: float = _positive(
-        60.0, "beyond this heading error a robot stops and turns in place", 180.0, "deg"
+    turn_in_place_deg: float = _between(
+        60.0, "beyond this heading error a robot stops and turns in place", 0.01, 180.0, "deg"
     )
     creep_mps: float = _share(
         0.15, "closing speed still allowed on contact: robots may nudge, never ram", 10.0, "m/s"
@@ -119,8 +119,8 @@ class LawSpec(_Section):
     proximity_decel: float = _positive(
         0.75, "share of the wheels' braking planned for around robots and walls", 1.0
     )
-    react_periods: float = _share(
-        1.0, "control periods a command holds before the next can brake", 100.0
+    react_periods: float = _between(
+        1.0, "control periods a command holds before the next can brake", 0.01, 100.0
     )
     ahead_deg: float = _share(
         70.0, "a robot within this angle of the travel is in the way", 180.0, "deg"
@@ -142,8 +142,10 @@ class OrcaSpec(_Section):
     """Reciprocal collision avoidance (``[spatial.orca]``; used with ``avoidance = "orca"``)."""
 
     SECTION: ClassVar[str] = "spatial.orca"
-    tau_s: float = _positive(1.5, "time horizon toward other robots", 60.0, "s")
-    tau_obstacle_s: float = _positive(0.6, "time horizon toward walls and obstacles", 60.0, "s")
+    tau_s: float = _between(1.5, "time horizon toward other robots", 0.01, 60.0, "s")
+    tau_obstacle_s: float = _between(
+        0.6, "time horizon toward walls and obstacles", 0.01, 60.0, "s"
+    )
     margin_m: float = _share(
         0.05, "added to the radius: a command is held one period while the robot turns", 1, "m"
     )

@@ -172,7 +172,7 @@ CASES: list[tuple[str, Callable[..., object], str]] = [
     (
         "override_spatial",
         lambda: apply_overrides(load_scenario("paper_spatial"), (("spatial.orca.tau_s", 0),)),
-        "override: spatial.orca.tau_s: must be in (0, 60] s, got 0.0",
+        "override: spatial.orca.tau_s: must be in [0.01, 60] s, got 0.0",
     ),
     (
         "env_keyword",
@@ -182,7 +182,7 @@ CASES: list[tuple[str, Callable[..., object], str]] = [
     (
         "sweep_grid",
         lambda tmp_path: sweep_grid(tmp_path, "spatial.orca.tau_s = [1.0, 0.0]"),
-        "grid.spatial.orca.tau_s: must be in (0, 60] s, got 0.0 (scenario 'paper_spatial')",
+        "grid.spatial.orca.tau_s: must be in [0.01, 60] s, got 0.0 (scenario 'paper_spatial')",
     ),
 ]
 

@@ -379,3 +379,34 @@ def test_warehouse_pickface_sites_leave_a_lane_beside_a_robot_at_work():
                 assert above - below == 2.0  # a 2 m aisle
                 free = (above - r_eff) - (y + 2.0 * r_eff)
                 assert free == pytest.approx(band), (name, x, y)
+
+
+SMALLEST = [
+    ("law", "turn_in_place_deg"),  # steering divides by 1 - cos(angle)
+    ("law", "react_periods"),  # ORCA divides by the reaction time
+    ("orca", "tau_s"),  # ORCA divides by its time horizons
+    ("orca", "tau_obstacle_s"),
+]
+
+
+@pytest.mark.parametrize(("table", "key"), SMALLEST)
+def test_a_setting_the_law_divides_by_is_refused_below_0_01(table, key):
+    """0, the smallest subnormal (5e-324: 1/x overflows; its cosine is 1) and just below
+    0.01 are refused in one line naming the key; 0.01 is taken."""
+    for tiny in (0, 5e-324, 1e-9, 0.0099):
+        d = doc()
+        d["spatial"].setdefault(table, {})[key] = tiny
+        fails(d, f"spatial.{table}.{key}")
+    d = doc()
+    d["spatial"].setdefault(table, {})[key] = 0.01
+    assert getattr(getattr(parse_scenario(d, source="x.toml").spatial, table), key) == 0.01
+
+
+def test_the_smallest_turn_in_place_angle_gives_a_finite_steering_gain():
+    from sim.spatial.controller import DiffDriveController
+
+    d = doc()
+    d["spatial"].setdefault("law", {})["turn_in_place_deg"] = 0.01
+    sp = parse_scenario(d, source="x.toml").spatial
+    gain = DiffDriveController(sp.drive, 0.1, law=sp.law).align_gain_
+    assert np.isfinite(gain) and gain > 0.0

@@ -32,7 +32,8 @@ def arrive(
     Args:
         p: the world's parts.
         z: (n,) robot positions, x + iy, m.
-        go: (n,) the robots driving to a site.
+        go: (n,) the robots driving to a site when the period began (a robot whose task the
+            stuck check has failed since is among them, and is passed by).
         v, w: (n,) this period's commands, handed to the robots that start work.
         t: the time, s.
         pairs: neighbour pairs (i, k) of the positions, for large fleets: a queued robot is
@@ -42,7 +43,7 @@ def arrive(
     f, tol, reach = p.fleet, p.arrive_tol_m, p.reach_m
     gap = np.abs(f.site - z)
     zone = tol + 2 * reach
-    there = go & (gap <= zone)
+    there = go & (gap <= zone) & (f.task >= 0)  # a robot the stuck check failed since has none
     if np.count_nonzero(there):  # near the site: arrived, or beside robots standing there
         if p.avoid:  # no pushing in: a slot, or wait for the service point
             p.jobs.sites.take_slots((there & (gap > tol)).nonzero()[0].tolist(), z, t)

@@ -232,12 +232,14 @@ class ScalarControl:
         p = self.parts
         f, tol, reach = p.fleet, p.arrive_tol_m, p.reach_m
         zone = tol + 2 * reach
-        site = f.site.tolist()
+        site, task = f.site.tolist(), f.task.tolist()
         nearest, arrived, queue = np.inf, [], []
         for j in range(len(zs)):
             if go[j]:
                 gap = abs(site[j] - zs[j])
                 nearest = gap if gap < nearest else nearest
+                if task[j] < 0:  # the stuck check failed its task in this period
+                    continue
                 if gap <= tol:
                     arrived.append(j)
                 elif gap <= zone:

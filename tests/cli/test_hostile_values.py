@@ -112,10 +112,14 @@ def with_value(doc: dict, key: str, value) -> dict:
 
 
 def short(doc: dict, key: str) -> dict:
-    """The document with a short stream (unless ``key`` is one of the stream's counts)."""
+    """The document with a short stream (unless ``key`` is one of the stream's counts), and
+    its map (if any) named by its full path, so the document may be written anywhere."""
     stream = doc.setdefault("stream", {})
     if not key.startswith("stream."):
         stream.update(SHORT)
+    spatial = doc.get("spatial", {})
+    if "map" in spatial:
+        spatial["map"] = str(resources.files("scenarios") / "data" / spatial["map"])
     return doc
 
 
@@ -199,3 +203,14 @@ def test_the_test_walks_nested_keys_and_list_entries():
     assert got == {"scenario": {"exec_time_s": [7.0, 2.0]}, "spatial": {"orca": {"tau_s": 3.0}}}
     assert doc["scenario"]["exec_time_s"][0] == 1.0  # a copy
     assert Path
+
+
+def test_a_map_scenario_written_elsewhere_still_finds_its_map(tmp_path):
+    """The depot's map is named relative to its file: the protocol test writes the document
+    elsewhere, so ``short`` names the map by its full path (or every depot case would be
+    refused as a missing map, and none would run)."""
+    from scenarios.loader import load_scenario
+
+    path = tmp_path / "depot.toml"
+    path.write_text(tomli_w.dumps(short(raw("depot"), "scenario.exec_time_s.0")))
+    assert Path(load_scenario(path).spatial.map).is_file()

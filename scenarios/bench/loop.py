@@ -94,7 +94,8 @@ def bench_sim(
         ``{str(n): {"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
         "sim_s", "wall_s", "bare_ratio", "bare_steps_per_s",
         "bare10_steps_per_s", "contact_share", "bids_ms", "avoid_share", "avoid_bare_ratio",
-        "sites_share", "sites_bare_ratio", "control_share", "control_calib_ratio", ...}}``: physics
+        "sites_share", "sites_bare_ratio", "control_share", "control_calib_ratio", "parts_s",
+        ...}}``: physics
         steps of the full loop per wall second, simulated / wall seconds, full-loop time per step
         over bare ``space.step`` time per step, the bare loop's steps per second (as the world sets
         the space, and with ten solver iterations throughout); wall seconds per simulated
@@ -107,7 +108,8 @@ def bench_sim(
         (:func:`timed_sites`; avoidance inside the compiled control period is not timed
         apart: 0 there); the share of the loop's time in the control period as a whole
         (:func:`timed_period`: steering, avoidance, drive law, wheel limits) and that time per
-        physics step in calibration steps. If ``allocate`` keeps ``timings_`` (``bids_s``,
+        physics step in calibration steps; the wall seconds of each part of the control
+        periods (:func:`timed_parts`). If ``allocate`` keeps ``timings_`` (``bids_s``,
         ``auction_s``, ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``;
         with avoidance, :func:`replan_report`; if the planner built its distance field,
         :func:`field_report`.
@@ -140,6 +142,7 @@ def bench_sim(
             timed_avoidance() as avoid_s,
             timed_sites() as sites_s,
             timed_period(type(world.control)) as control_s,
+            timed_parts(type(world.control)) as parts_s,
         ):
             steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
@@ -172,6 +175,7 @@ def bench_sim(
             "sites_bare_ratio": (sites_s[0] / steps) / bare,
             "control_share": control_s[0] / wall,
             "control_calib_ratio": (control_s[0] / steps) / calib,
+            "parts_s": dict(parts_s),
         }
         if counts.get("rounds"):
             rounds = counts["rounds"]
@@ -339,6 +343,62 @@ def timed_period(kind: type):
         yield spent
     finally:
         kind.period = inner
+
+
+TIMED_PARTS = ("control", "traffic", "jams", "sites")  # :func:`timed_parts`, reported so
+JAM_RULES = ("look_ahead", "standing_near", "pass_workers", "break_jams")
+RULES = (  # the parts of a control period beside the control period itself, by method
+    ("traffic", "sim.spatial.traffic.rules", "Traffic", ("period",)),
+    ("jams", "sim.spatial.jams", "Jams", JAM_RULES),
+    ("sites", "sim.spatial.sites", "Sites", ("queue", "take_slots", "leave")),
+)
+
+
+@contextlib.contextmanager
+def timed_parts(control: type, rules=RULES):
+    """Time a control period's parts while the block runs, each without the parts it calls
+    (the site work the control period's end of work does counts as site work, not as control):
+    ``control`` (``control.period``: steering, ORCA, the drive law, the wheel limits, the
+    events between its stages), ``traffic`` (the traffic rules, ``Traffic.period``), ``jams``
+    (look-ahead and the jam rules: ``Jams.look_ahead``, ``standing_near``, ``pass_workers``,
+    ``break_jams``) and ``sites`` (site queues, service slots, leaving a site:
+    ``Sites.queue``, ``take_slots``, ``leave``). ``rules``: (part, module, class, method names)
+    for the parts other than ``control``. Yields ``{part: wall seconds so far}``; the classes
+    are restored after the block."""
+    import importlib
+
+    spent = dict.fromkeys([part for part, *_ in rules], 0.0)
+    spent["control"] = 0.0
+    stack: list[list[float]] = []  # the time of the parts each open call called, s
+
+    def timer(part, inner):
+        def timed(*args, **kwargs):
+            inside = [0.0]
+            stack.append(inside)
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                took = time.perf_counter() - t0
+                stack.pop()
+                spent[part] += took - inside[0]
+                if stack:
+                    stack[-1][0] += took
+
+        return timed
+
+    methods = [("control", control, "period")]
+    for part, module, name, names in rules:
+        cls = getattr(importlib.import_module(module), name)
+        methods += [(part, cls, method) for method in names]
+    inners = [cls.__dict__[method] for _, cls, method in methods]
+    for (part, cls, method), inner in zip(methods, inners, strict=True):
+        setattr(cls, method, timer(part, inner))
+    try:
+        yield spent
+    finally:
+        for (_, cls, method), inner in zip(methods, inners, strict=True):
+            setattr(cls, method, inner)
 
 
 @contextlib.contextmanager

@@ -40,6 +40,13 @@ from __future__ import annotations
 import sys
 
 PARTS = ("sim", "gif", "alloc", "maps")
+PRICE_LABELS = {
+    "control": "control period",
+    "traffic": "traffic rules",
+    "jams": "look-ahead and jam rules",
+    "sites": "site work",
+    "rest": "the rest",
+}
 PAPER_SETS = 8  # task sets of paper_spatial timed by the 10-robot figure (about 3,400 s simulated)
 
 
@@ -87,14 +94,20 @@ def bench_paper_loop(
         ``{"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
         "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s", "avoid_share",
         "avoid_bare_ratio", "sites_share", "sites_bare_ratio", "control_share",
-        "control_calib_ratio"}`` (as
+        "control_calib_ratio", "parts_s"}`` (as
         :func:`scenarios.bench.loop.bench_sim` says).
     """
     import time
 
     from learning.episode import run_protocol
     from scenarios.bench.calibration import calibration_step_s
-    from scenarios.bench.loop import bare_step_time, timed_avoidance, timed_period, timed_sites
+    from scenarios.bench.loop import (
+        bare_step_time,
+        timed_avoidance,
+        timed_parts,
+        timed_period,
+        timed_sites,
+    )
     from scenarios.protocol import RunSpec, build_run
     from sim.recording import TrajectoryRecorder
 
@@ -110,6 +123,7 @@ def bench_paper_loop(
         timed_avoidance() as avoid_s,
         timed_sites() as sites_s,
         timed_period(type(world.control)) as control_s,
+        timed_parts(type(world.control)) as parts_s,
     ):
         run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
     wall = time.perf_counter() - t0
@@ -133,6 +147,7 @@ def bench_paper_loop(
         "sites_bare_ratio": (sites_s[0] / steps) / bare,
         "control_share": control_s[0] / wall,
         "control_calib_ratio": (control_s[0] / steps) / calib,
+        "parts_s": dict(parts_s),
     }
 
 
@@ -297,7 +312,7 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
     per simulated second; interference only ever slows a run down), and the prices are taken
     from those; ``avoidance_price[n]["price_rounds"]`` keeps the price of each round on its own,
     whose spread shows how far one round can be trusted."""
-    from scenarios.bench.loop import bench_sim
+    from scenarios.bench.loop import TIMED_PARTS, bench_sim
 
     say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
     runs = (("sim", "none", "on"), ("sim_orca", "orca", "on"), ("sim_orca_alone", "orca", "off"))
@@ -329,6 +344,18 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
     def price(on: dict, off: dict, prefix: str = "") -> float:
         return per_s(on, prefix) / per_s(off, prefix)
 
+    def split(on: dict, off: dict) -> dict[str, float]:
+        """Where the price goes: each part's wall time per simulated second with avoidance
+        less without, over the whole loop's without (``timed_parts``); ``rest`` is what no
+        part holds (physics, bookkeeping, allocation, the timers). They add up to price - 1."""
+        base = per_s(off)
+        parts = {
+            k: (on["parts_s"][k] / on["sim_s"] - off["parts_s"][k] / off["sim_s"]) / base
+            for k in TIMED_PARTS
+        }
+        parts["rest"] = price(on, off) - 1.0 - sum(parts.values())
+        return parts
+
     out["avoidance_price"] = {}
     for n, off in out["sim"].items():
         on, alone = out["sim_orca"][n], out["sim_orca_alone"][n]
@@ -336,6 +363,8 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
         if "busy_wall_s" in off:  # the 10-robot busy arena too
             row["busy_price"] = price(on, off, "busy_")
             row["busy_orca_alone_price"] = price(alone, off, "busy_")
+        if "parts_s" in on and "parts_s" in off:
+            row["price_parts"] = split(on, off)
         if repeat > 1:
             row["price_rounds"] = [price(got["sim_orca"][n], got["sim"][n]) for got in rounds]
         out["avoidance_price"][n] = row
@@ -367,6 +396,9 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
             f"          price of avoidance {p['price']:.2f}{spread}, ORCA alone (traffic rules "
             f"off) {p['orca_alone_price']:.2f} ({what}{extra})"
         )
+        if "price_parts" in p:
+            parts = ", ".join(f"{PRICE_LABELS[k]} {v:+.2f}" for k, v in p["price_parts"].items())
+            say(f"          of the price, in loops without avoidance: {parts}")
     for n, r in out["sim"].items():
         if "field_build_s" in r:
             say(

@@ -425,7 +425,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Measure, in this process: the spatial loop at 10, 100 and 1000 robots in "
         "the units users pay (real-time factor, wall seconds per simulated robot-hour, the price "
         "of collision avoidance as wall time with over without, with the traffic rules and with "
-        "ORCA alone, and the loop per physics step "
+        "ORCA alone, split into the control period, the traffic rules, look-ahead and the jam "
+        "rules, site work and the rest, and the loop per physics step "
         "in steps of a fixed calibration space); our GIF writer against FuncAnimation + "
         "PillowWriter; allocation time per round against team size. --json prints one JSON "
         "object. Compare the ratios, not absolute times: machines are shared and noisy.",

@@ -390,6 +390,12 @@ def test_the_bench_times_avoidance_inside_the_loop():
     # site queues and service slots exist only with avoidance; their time is apart from it
     assert 0.0 < on["sites_share"] < 1.0 - on["avoid_share"]
     assert off["sites_bare_ratio"] == off["sites_share"] == 0.0
+    # the parts of the control periods: the rules run only with avoidance
+    assert on["parts_s"]["control"] > 0.0 and on["parts_s"]["traffic"] > 0.0
+    assert on["parts_s"]["jams"] > 0.0 and on["parts_s"]["sites"] > 0.0
+    assert off["parts_s"]["control"] > 0.0
+    assert off["parts_s"]["traffic"] == off["parts_s"]["jams"] == off["parts_s"]["sites"] == 0.0
+    assert sum(on["parts_s"].values()) < on["wall_s"]
     # the jam rule's re-plan, as the rule builds it and afresh, in the same run
     assert 0.0 < on["replan_ms"] and 0.0 < on["replan_fresh_ms"]
     assert "replan_ms" not in off

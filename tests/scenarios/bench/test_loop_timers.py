@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import time
 
-from scenarios.bench.loop import timed_period
+from scenarios.bench.loop import timed_parts, timed_period
+
+
+def _spin(seconds: float) -> None:
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        pass
 
 
 class Period:
@@ -15,9 +21,7 @@ class Period:
 
     def period(self, t: float) -> None:
         self.calls += 1
-        end = time.perf_counter() + 0.002
-        while time.perf_counter() < end:
-            pass
+        _spin(0.002)
 
 
 def test_timed_period_adds_every_instance_and_restores_the_class():
@@ -34,3 +38,53 @@ def test_timed_period_adds_every_instance_and_restores_the_class():
     assert spent[0] == inside
     assert (first.calls, later.calls) == (2, 2)
     assert Period.__dict__["period"] is original
+
+
+class Rules:
+    """A rule of a control period that takes a known time and calls a site's work."""
+
+    def __init__(self, sites) -> None:
+        self.sites = sites
+
+    def period(self, t: float) -> None:
+        _spin(0.004)
+        self.sites.queue(t)
+
+
+class Sites:
+    def queue(self, t: float) -> None:
+        _spin(0.006)
+
+
+class Controlled:
+    """A control period that takes 2 ms of its own and calls the rules (4 ms, then 6 ms of
+    site work)."""
+
+    def __init__(self) -> None:
+        self.rules = Rules(Sites())
+
+    def period(self, t: float) -> None:
+        _spin(0.002)
+        self.rules.period(t)
+
+
+def test_timed_parts_counts_each_part_without_the_parts_it_calls_and_restores_them():
+    here = __name__
+    rules = (("traffic", here, "Rules", ("period",)), ("sites", here, "Sites", ("queue",)))
+    originals = [cls.__dict__[name] for cls, name in ((Controlled, "period"), (Rules, "period"))]
+    world = Controlled()
+    with timed_parts(Controlled, rules) as spent:
+        for k in range(3):
+            world.period(0.1 * k)
+        Sites().queue(1.0)  # outside a control period: site work all the same
+        inside = dict(spent)
+    world.period(2.0)  # after the block: not counted
+    assert set(inside) == {"control", "traffic", "sites"}
+    # each at least its own time; below what it would be with the parts it calls (36 ms for
+    # the control periods, 30 ms for the rules): a slow spell can only add to a part
+    assert 0.006 <= inside["control"] < 0.036
+    assert 0.012 <= inside["traffic"] < 0.030
+    assert 0.024 <= inside["sites"] < 0.5
+    assert spent == inside
+    assert Controlled.__dict__["period"] is originals[0]
+    assert Rules.__dict__["period"] is originals[1]

@@ -105,6 +105,46 @@ def test_repeated_rounds_take_each_loops_quickest_round_and_keep_every_rounds_pr
     assert "round 3 of 3" in text
 
 
+def test_the_price_is_split_into_the_parts_of_the_control_period(monkeypatch):
+    """Each part's wall time per simulated second with avoidance less without, over the loop's
+    without: here the loop without takes 2 s per 100 s, with the rules 3 s per 50 s, so the
+    price is 3; the parts' shares and the rest add up to 2."""
+    parts = {
+        ("none", "on"): {"control": 1.0, "traffic": 0.0, "jams": 0.0, "sites": 0.0},
+        ("orca", "on"): {"control": 1.0, "traffic": 0.5, "jams": 0.25, "sites": 0.1},
+        ("orca", "off"): {"control": 0.8, "traffic": 0.0, "jams": 0.2, "sites": 0.1},
+    }
+    wall = {("none", "on"): (2.0, 100.0), ("orca", "on"): (3.0, 50.0), ("orca", "off"): (2.0, 50.0)}
+
+    def row(avoidance, traffic):
+        w, sim = wall[avoidance, traffic]
+        return {
+            "wall_s": w, "sim_s": sim, "rtf": sim / w, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
+            "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0,
+            "parts_s": dict(parts[avoidance, traffic]),
+        }  # fmt: skip
+
+    def fake_sim(allocator=None, avoidance="none", traffic="on"):
+        return {"10": row(avoidance, traffic)}
+
+    monkeypatch.setattr(loop, "bench_sim", fake_sim)
+    monkeypatch.setattr(run, "bench_paper_loop", row)
+    lines = []
+    out = run.bench_sim_part(lines.append)
+    p10 = out["avoidance_price"]["10"]
+    assert p10["price"] == pytest.approx(3.0)
+    # per simulated second: control 0.02 with and 0.01 without, traffic 0.01, jams 0.005,
+    # sites 0.002; over the 0.02 s per simulated second of the loop without
+    want = {"control": 0.5, "traffic": 0.5, "jams": 0.25, "sites": 0.1, "rest": 0.65}
+    assert p10["price_parts"] == pytest.approx(want)
+    assert sum(p10["price_parts"].values()) == pytest.approx(p10["price"] - 1.0)
+    text = "\n".join(lines)
+    assert (
+        "of the price, in loops without avoidance: control period +0.50, traffic rules +0.50, "
+        "look-ahead and jam rules +0.25, site work +0.10, the rest +0.65"
+    ) in text
+
+
 def test_one_round_reports_no_round_prices(monkeypatch):
     row = {"wall_s": 1.0, "sim_s": 10.0, "rtf": 10.0, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
            "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0}  # fmt: skip

@@ -1,6 +1,10 @@
 """Shared fixtures: the paper scenario (whole and short), a tiny hand-built one, a synthetic
 trajectory, a small sweep file; and the 'measured by the tests' lines printed after the summary.
 
+The suite runs on every core (pytest-xdist, ``-n auto`` in pyproject.toml). Before the workers
+start, the control kernel is compiled once (or loaded) in the controlling process, so that no
+two workers compile it at once and a subprocess never meets a cache half written.
+
 Small worlds and the helpers that act on them are in ``tests/worlds.py``; fixtures of one
 folder in that folder's ``conftest.py`` (``tests/sim/render``, ``tests/allocation``).
 """
@@ -65,22 +69,47 @@ def abstract_file(tmp_path):
     return path
 
 
+pytest_plugins = ["pytester"]  # tests/test_suite_setup.py runs a small suite of its own
+
+MEASURED = "measured by the tests"  # the user property a report line travels in
 REPORT_KEY = pytest.StashKey[list]()
+
+
+def pytest_configure(config):
+    """In the process that hands tests to xdist's workers: compile or load the kernel now."""
+    if config.getoption("numprocesses", default=None) and not hasattr(config, "workerinput"):
+        from sim.spatial.control.kernel.loading import ensure_compiled
+
+        ensure_compiled()
+    config.stash[REPORT_KEY] = []
+    config.pluginmanager.register(ReportLines(config.stash[REPORT_KEY]), "report-lines")
 
 
 @pytest.fixture()
 def report_line(request):
-    """Add a line to the 'measured by the tests' section printed after the test summary."""
+    """Add a line to the 'measured by the tests' section printed after the test summary (it
+    travels with the test's report, so a line written in an xdist worker is printed too)."""
 
     def add(text: str) -> None:
-        request.config.stash.setdefault(REPORT_KEY, []).append(text)
+        request.node.user_properties.append((MEASURED, text))
 
     return add
+
+
+class ReportLines:
+    """Collects the report lines from the tests' last reports, in the order they end."""
+
+    def __init__(self, lines: list[str]) -> None:
+        self.lines = lines
+
+    def pytest_runtest_logreport(self, report):
+        if report.when == "teardown":
+            self.lines += [text for key, text in report.user_properties if key == MEASURED]
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
     lines = config.stash.get(REPORT_KEY, [])
     if lines:
-        terminalreporter.section("measured by the tests")
+        terminalreporter.section(MEASURED)
         for line in lines:
             terminalreporter.write_line(line)

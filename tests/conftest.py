@@ -18,6 +18,8 @@ import pytest
 from scenarios.loader import load_scenario
 from sim.scenario import RobotSpec, Scenario, StreamSpec
 
+pytest_plugins = ["pytester"]  # tests/test_suite_setup.py runs a small suite of its own
+
 
 @pytest.fixture(scope="session")
 def paper() -> Scenario:
@@ -68,8 +70,6 @@ def abstract_file(tmp_path):
     path.write_text(ABSTRACT_SWEEP)
     return path
 
-
-pytest_plugins = ["pytester"]  # tests/test_suite_setup.py runs a small suite of its own
 
 MEASURED = "measured by the tests"  # the user property a report line travels in
 REPORT_KEY = pytest.StashKey[list]()

@@ -309,9 +309,13 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
 
     ``repeat`` rounds, each timing the three loops in turn (so a slow spell of a shared machine
     falls on all three alike). Each loop's figures are those of its quickest round (wall time
-    per simulated second; interference only ever slows a run down), and the prices are taken
-    from those; ``avoidance_price[n]["price_rounds"]`` keeps the price of each round on its own,
-    whose spread shows how far one round can be trusted."""
+    per simulated second; interference only ever slows a run down). A price is a ratio of two
+    loops of one round: that of the median round (by the price with the rules; of the two
+    middle rounds the lower), whose ORCA-alone price and split are given with it; the busy
+    arena's from its own median round. Taken from the loops' quickest rounds, a price would
+    mix rounds, and on a machine whose speed drifts for minutes it can lie outside every
+    round's own. ``avoidance_price[n]["price_rounds"]`` keeps the price of each round, whose
+    spread shows how far one round can be trusted."""
     from scenarios.bench.loop import TIMED_PARTS, bench_sim
 
     say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
@@ -356,13 +360,20 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
         parts["rest"] = price(on, off) - 1.0 - sum(parts.values())
         return parts
 
+    def median_round(n: str, prefix: str = "") -> tuple[dict, dict, dict]:
+        """The loops (without, with the rules, ORCA alone) of the round with the median price."""
+        loops = [(got["sim"][n], got["sim_orca"][n], got["sim_orca_alone"][n]) for got in rounds]
+        loops.sort(key=lambda three: price(three[1], three[0], prefix))
+        return loops[(len(loops) - 1) // 2]
+
     out["avoidance_price"] = {}
-    for n, off in out["sim"].items():
-        on, alone = out["sim_orca"][n], out["sim_orca_alone"][n]
+    for n in out["sim"]:
+        off, on, alone = median_round(n)
         row = {"price": price(on, off), "orca_alone_price": price(alone, off)}
         if "busy_wall_s" in off:  # the 10-robot busy arena too
-            row["busy_price"] = price(on, off, "busy_")
-            row["busy_orca_alone_price"] = price(alone, off, "busy_")
+            off_b, on_b, alone_b = median_round(n, "busy_")
+            row["busy_price"] = price(on_b, off_b, "busy_")
+            row["busy_orca_alone_price"] = price(alone_b, off_b, "busy_")
         if "parts_s" in on and "parts_s" in off:
             row["price_parts"] = split(on, off)
         if repeat > 1:
@@ -391,7 +402,7 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
         spread = ""
         if "price_rounds" in p:
             lo, hi = min(p["price_rounds"]), max(p["price_rounds"])
-            spread = f" (best of {repeat}; rounds {lo:.2f} to {hi:.2f})"
+            spread = f" (median of {repeat} rounds: {lo:.2f} to {hi:.2f})"
         say(
             f"          price of avoidance {p['price']:.2f}{spread}, ORCA alone (traffic rules "
             f"off) {p['orca_alone_price']:.2f} ({what}{extra})"

@@ -443,8 +443,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_int,
         default=1,
         help="rounds of the sim part, each timing the three loops in turn; every figure is "
-        "the quickest round's and the price of each round is printed beside it: use 3 or more "
-        "to compare two commits (default 1)",
+        "its loop's quickest round's, every price the median round's, with the price of each "
+        "round beside it: use 3 or more to compare two commits (default 1)",
     )
     h = sub.add_parser(
         "hardcase",

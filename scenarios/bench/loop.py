@@ -347,26 +347,34 @@ def timed_period(kind: type):
 
 TIMED_PARTS = ("control", "traffic", "jams", "sites")  # :func:`timed_parts`, reported so
 JAM_RULES = ("look_ahead", "standing_near", "pass_workers", "break_jams")
-RULES = (  # the parts of a control period beside the control period itself, by method
-    ("traffic", "sim.spatial.traffic.rules", "Traffic", ("period",)),
-    ("jams", "sim.spatial.jams", "Jams", JAM_RULES),
-    ("sites", "sim.spatial.sites", "Sites", ("queue", "take_slots", "leave")),
-)
+
+
+def world_rules() -> tuple:
+    """The parts of a control period beside the control period itself: (part, class, method
+    names)."""
+    from sim.spatial.jams import Jams
+    from sim.spatial.sites import Sites
+    from sim.spatial.traffic.rules import Traffic
+
+    return (
+        ("traffic", Traffic, ("period",)),
+        ("jams", Jams, JAM_RULES),
+        ("sites", Sites, ("queue", "take_slots", "leave")),
+    )
 
 
 @contextlib.contextmanager
-def timed_parts(control: type, rules=RULES):
+def timed_parts(control: type, rules: tuple | None = None):
     """Time a control period's parts while the block runs, each without the parts it calls
     (the site work the control period's end of work does counts as site work, not as control):
     ``control`` (``control.period``: steering, ORCA, the drive law, the wheel limits, the
     events between its stages), ``traffic`` (the traffic rules, ``Traffic.period``), ``jams``
     (look-ahead and the jam rules: ``Jams.look_ahead``, ``standing_near``, ``pass_workers``,
     ``break_jams``) and ``sites`` (site queues, service slots, leaving a site:
-    ``Sites.queue``, ``take_slots``, ``leave``). ``rules``: (part, module, class, method names)
-    for the parts other than ``control``. Yields ``{part: wall seconds so far}``; the classes
-    are restored after the block."""
-    import importlib
-
+    ``Sites.queue``, ``take_slots``, ``leave``). ``rules``: (part, class, method names) for the
+    parts other than ``control`` (default :func:`world_rules`). Yields ``{part: wall seconds
+    so far}``; the classes are restored after the block."""
+    rules = world_rules() if rules is None else rules
     spent = dict.fromkeys([part for part, *_ in rules], 0.0)
     spent["control"] = 0.0
     stack: list[list[float]] = []  # the time of the parts each open call called, s
@@ -388,8 +396,7 @@ def timed_parts(control: type, rules=RULES):
         return timed
 
     methods = [("control", control, "period")]
-    for part, module, name, names in rules:
-        cls = getattr(importlib.import_module(module), name)
+    for part, cls, names in rules:
         methods += [(part, cls, method) for method in names]
     inners = [cls.__dict__[method] for _, cls, method in methods]
     for (part, cls, method), inner in zip(methods, inners, strict=True):

@@ -69,8 +69,7 @@ class Controlled:
 
 
 def test_timed_parts_counts_each_part_without_the_parts_it_calls_and_restores_them():
-    here = __name__
-    rules = (("traffic", here, "Rules", ("period",)), ("sites", here, "Sites", ("queue",)))
+    rules = (("traffic", Rules, ("period",)), ("sites", Sites, ("queue",)))
     originals = [cls.__dict__[name] for cls, name in ((Controlled, "period"), (Rules, "period"))]
     world = Controlled()
     with timed_parts(Controlled, rules) as spent:

@@ -10,7 +10,9 @@ import functools
 
 import numpy as np
 
-TOL_M = 1e-9  # a line touching a polygon's boundary meets it
+from sim.spatial.traffic import compiled
+
+TOL_M = compiled.TOL_M  # a line touching a polygon's boundary meets it
 
 
 def as_complex(poly) -> np.ndarray:
@@ -20,11 +22,6 @@ def as_complex(poly) -> np.ndarray:
         return arr.astype(complex).reshape(-1)
     arr = arr.astype(float).reshape(-1, 2)
     return arr[:, 0] + 1j * arr[:, 1]
-
-
-def _next(poly: np.ndarray) -> np.ndarray:
-    """Each vertex's successor (``np.roll(poly, -1)``, without its overhead)."""
-    return np.concatenate((poly[1:], poly[:1]))
 
 
 def to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -37,51 +34,33 @@ def to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray
     return np.abs(p - near), near
 
 
+def _poly(poly) -> np.ndarray:
+    """A polygon as the compiled functions take it: a contiguous (P,) complex array."""
+    if isinstance(poly, np.ndarray) and poly.dtype == complex and poly.flags.c_contiguous:
+        return poly
+    return np.ascontiguousarray(as_complex(poly))
+
+
 def polygon_gap(pa: np.ndarray, pb: np.ndarray) -> tuple[float, complex, complex]:
     """Distance between two disjoint convex polygons and the nearest points (on ``pa``, on
-    ``pb``); 0 where they touch or overlap (then the points are a vertex and its nearest)."""
-    a0, a1 = pa, _next(pa)
-    b0, b1 = pb, _next(pb)
-    d_ab, near_ab = to_segments(pa[:, None], b0[None, :], b1[None, :])  # vertices of a to b
-    d_ba, near_ba = to_segments(pb[:, None], a0[None, :], a1[None, :])  # vertices of b to a
-    i, k = np.unravel_index(int(d_ab.argmin()), d_ab.shape)
-    m, n = np.unravel_index(int(d_ba.argmin()), d_ba.shape)
-    if d_ab[i, k] <= d_ba[m, n]:
-        gap, p, q = float(d_ab[i, k]), complex(pa[i]), complex(near_ab[i, k])
-    else:
-        gap, p, q = float(d_ba[m, n]), complex(near_ba[m, n]), complex(pb[m])
-    if inside(pa, pb).any() or inside(pb, pa).any():
-        return 0.0, p, q
-    return gap, p, q
-
-
-def inside(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """(n,) True where a point lies strictly inside the convex CCW polygon ``poly``."""
-    e0, e1 = poly, _next(poly)
-    cross = ((e1 - e0)[None, :].conj() * (np.asarray(points)[:, None] - e0[None, :])).imag
-    return (cross > TOL_M).all(axis=1)
+    ``pb``); 0 where they touch or overlap (then the points are a vertex and its nearest).
+    Compiled (``sim.spatial.traffic.compiled``)."""
+    return compiled.polygon_gap(_poly(pa), _poly(pb))
 
 
 def clip_line(origin: complex, direction: complex, poly: np.ndarray) -> tuple[float, float]:
     """The interval of t where ``origin + t direction`` lies in the convex CCW polygon
-    (boundary included); (inf, -inf) if the line misses it."""
-    e0, e1 = poly, _next(poly)
-    edge = e1 - e0
-    # inside: the point is left of every edge, cross(edge, p - e0) >= 0
-    base = (edge.conj() * (origin - e0)).imag  # cross at t = 0
-    rate = (edge.conj() * direction).imag  # its change per unit t
-    lo, hi = -np.inf, np.inf
-    for b, r in zip(base.tolist(), rate.tolist(), strict=True):
-        if abs(r) < 1e-15:
-            if b < -TOL_M:
-                return np.inf, -np.inf
-            continue
-        t = -b / r
-        if r > 0:
-            lo = max(lo, t - TOL_M / r)
-        else:
-            hi = min(hi, t - TOL_M / r)
-    return (lo, hi) if lo <= hi else (np.inf, -np.inf)
+    (boundary included); (inf, -inf) if the line misses it. Compiled
+    (``sim.spatial.traffic.compiled``)."""
+    return compiled.clip_line(complex(origin), complex(direction), _poly(poly))
+
+
+def path_gaps(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """(n,) distance from each of ``points`` (x + iy) to the polyline ``path``: the least of
+    :func:`to_segments` over its segments (inf for a path of fewer than two points), m.
+    Compiled (``sim.spatial.traffic.compiled``)."""
+    pts = np.ascontiguousarray(points, dtype=complex).reshape(-1)
+    return compiled.path_gaps(pts, np.ascontiguousarray(path, dtype=complex).reshape(-1))
 
 
 def clip_segments(

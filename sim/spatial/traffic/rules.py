@@ -29,7 +29,8 @@ from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
 from sim.spatial.sites import Sites
 from sim.spatial.traffic.annotate import Chain, chains, crossings, left_along
-from sim.spatial.traffic.geometry import to_segments
+from sim.spatial.traffic.compiled import way_gaps
+from sim.spatial.traffic.geometry import path_gaps
 from sim.spatial.traffic.locks import Locks
 from sim.spatial.traffic.network import PassageMap
 from sim.states import DRIVING, IDLE, WORKING
@@ -208,16 +209,8 @@ class Traffic:
         """(len(rows),) distance from the nearest of ``points`` to each robot's way ahead: from
         where it is to the waypoint it aims at, then along its path, m."""
         fol = self.follower
-        pts, idx = fol.points[rows], fol.index[rows]
-        aim = pts[np.arange(len(rows)), idx]
-        gap = to_segments(points[None, :], self.fleet.last_z_m[rows, None], aim[:, None])[0]
-        gap = gap.min(axis=1)
-        if pts.shape[1] > 1:
-            seg = to_segments(points[None, None, :], pts[:, :-1, None], pts[:, 1:, None])[0]
-            ahead = np.arange(pts.shape[1] - 1)[None, :] >= idx[:, None]
-            seg = np.where(ahead[:, :, None], seg, np.inf)
-            gap = np.minimum(gap, seg.min(axis=(1, 2)))
-        return gap
+        points = np.ascontiguousarray(points, dtype=complex)
+        return way_gaps(points, self.fleet.last_z_m[rows], fol.points[rows], fol.index[rows])
 
     def _signature(self) -> np.ndarray:
         """(4, m) what identifies each robot's path: first and last point, last index, length."""
@@ -281,8 +274,7 @@ class Traffic:
         if not len(rows) or len(zone) < 2:
             self.blockers.pop(j, None)
             return True
-        dist, _ = to_segments(f.last_z_m[rows, None], zone[None, :-1], zone[None, 1:])
-        block = rows[dist.min(axis=1) < self.near_m]
+        block = rows[path_gaps(f.last_z_m[rows], zone) < self.near_m]
         self.blockers[j] = block.tolist()
         return not len(block)
 
@@ -339,9 +331,9 @@ class Traffic:
         rows = rows[box]
         if not len(rows):
             return False
-        gap, _ = to_segments(f.last_z_m[rows, None], pts[None, :-1], pts[None, 1:])
+        gap = path_gaps(f.last_z_m[rows], pts)
         near_end = np.abs(f.last_z_m[rows] - pts[-1]) < pass_m
-        rows = rows[(gap.min(axis=1) < pass_m - 1e-3) & ~near_end]
+        rows = rows[(gap < pass_m - 1e-3) & ~near_end]
         if not len(rows):
             return False
         z = complex(pts[0])

@@ -1,0 +1,272 @@
+"""``sim.spatial.traffic.compiled``: the traffic layer's compiled geometry gives numpy's
+answers, bit for bit with numpy's baseline kernels (the golden runs' numerics, checked in a
+child Python with ``NPY_ENABLE_CPU_FEATURES=X86_V2``) and within rounding with the kernels
+this CPU dispatches; and the cases that decide by a tie or a touch come out as numpy's do.
+
+The numpy functions below are the traffic layer's geometry as it was written in numpy: the
+reference the compiled functions are held to.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sim.spatial.traffic import compiled
+from sim.spatial.traffic.geometry import TOL_M, clip_line, disc_polygon, path_gaps, polygon_gap
+from sim.spatial.traffic.geometry import to_segments as np_to_segments
+
+ROOT = Path(__file__).resolve().parents[4]
+PORTABLE_ENV = {"NPY_ENABLE_CPU_FEATURES": "X86_V2"}  # as tests/golden/cases.py
+
+
+# -- the numpy reference -------------------------------------------------------------------
+def _next(poly):
+    return np.concatenate((poly[1:], poly[:1]))
+
+
+def np_inside(points, poly):
+    e0, e1 = poly, _next(poly)
+    cross = ((e1 - e0)[None, :].conj() * (np.asarray(points)[:, None] - e0[None, :])).imag
+    return (cross > TOL_M).all(axis=1)
+
+
+def np_polygon_gap(pa, pb):
+    a0, a1 = pa, _next(pa)
+    b0, b1 = pb, _next(pb)
+    d_ab, near_ab = np_to_segments(pa[:, None], b0[None, :], b1[None, :])
+    d_ba, near_ba = np_to_segments(pb[:, None], a0[None, :], a1[None, :])
+    i, k = np.unravel_index(int(d_ab.argmin()), d_ab.shape)
+    m, n = np.unravel_index(int(d_ba.argmin()), d_ba.shape)
+    if d_ab[i, k] <= d_ba[m, n]:
+        gap, p, q = float(d_ab[i, k]), complex(pa[i]), complex(near_ab[i, k])
+    else:
+        gap, p, q = float(d_ba[m, n]), complex(near_ba[m, n]), complex(pb[m])
+    if np_inside(pa, pb).any() or np_inside(pb, pa).any():
+        return 0.0, p, q
+    return gap, p, q
+
+
+def np_clip_line(origin, direction, poly):
+    e0, e1 = poly, _next(poly)
+    edge = e1 - e0
+    base = (edge.conj() * (origin - e0)).imag
+    rate = (edge.conj() * direction).imag
+    lo, hi = -np.inf, np.inf
+    for b, r in zip(base.tolist(), rate.tolist(), strict=True):
+        if abs(r) < 1e-15:
+            if b < -TOL_M:
+                return np.inf, -np.inf
+            continue
+        t = -b / r
+        if r > 0:
+            lo = max(lo, t - TOL_M / r)
+        else:
+            hi = min(hi, t - TOL_M / r)
+    return (lo, hi) if lo <= hi else (np.inf, -np.inf)
+
+
+def np_path_gaps(points, path):
+    gap, _ = np_to_segments(points[:, None], path[None, :-1], path[None, 1:])
+    return gap.min(axis=1)
+
+
+def np_way_gaps(points, z, pts, idx):
+    aim = pts[np.arange(len(pts)), idx]
+    gap = np_to_segments(points[None, :], z[:, None], aim[:, None])[0].min(axis=1)
+    if pts.shape[1] > 1:
+        seg = np_to_segments(points[None, None, :], pts[:, :-1, None], pts[:, 1:, None])[0]
+        ahead = np.arange(pts.shape[1] - 1)[None, :] >= idx[:, None]
+        seg = np.where(ahead[:, :, None], seg, np.inf)
+        gap = np.minimum(gap, seg.min(axis=(1, 2)))
+    return gap
+
+
+# -- cases ---------------------------------------------------------------------------------
+def polygons(rng: np.random.Generator, n: int) -> list[np.ndarray]:
+    """Convex CCW polygons: robots' octagons at random points, turned polygons of 3 to 8
+    sides, and boxes on a half-metre grid (edges shared, corners touching, exact ties)."""
+    out = []
+    for _ in range(n):
+        kind = rng.integers(3)
+        if kind == 0:
+            out.append(disc_polygon(complex(*rng.uniform(0, 6, 2)), 0.25))
+        elif kind == 1:
+            sides = int(rng.integers(3, 9))
+            turn = np.exp(1j * rng.uniform(0, 2 * np.pi))
+            shape = disc_polygon(0j, float(rng.uniform(0.1, 1.5)), sides) * turn
+            out.append(complex(*rng.uniform(0, 6, 2)) + shape)
+        else:
+            x0, y0 = rng.integers(0, 12, 2) / 2
+            w, h = rng.integers(1, 5, 2) / 2
+            out.append(np.array([x0 + 1j * y0, x0 + w + 1j * y0, x0 + w + 1j * (y0 + h)]))
+            out[-1] = np.append(out[-1], x0 + 1j * (y0 + h))
+    return out
+
+
+def lines(rng: np.random.Generator, polys: list[np.ndarray], n: int):
+    """(origin, direction) pairs: random, axis-parallel, and along a polygon's edge."""
+    out = []
+    for s in range(n):
+        poly = polys[s % len(polys)]
+        kind = s % 3
+        if kind == 0:
+            origin = complex(*rng.uniform(-1, 7, 2))
+            direction = np.exp(1j * rng.uniform(0, 2 * np.pi))
+        elif kind == 1:
+            origin = complex(*(rng.integers(0, 14, 2) / 2))
+            direction = (1, -1, 1j, -1j)[int(rng.integers(4))]
+        else:
+            k = int(rng.integers(len(poly)))
+            edge = poly[(k + 1) % len(poly)] - poly[k]
+            origin, direction = complex(poly[k]), complex(edge / abs(edge))
+        out.append((complex(origin), complex(direction)))
+    return out
+
+
+def paths(rng: np.random.Generator, rows: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, width) polylines padded with their last point, some on the half-metre grid, and
+    the waypoint each aims at."""
+    pts = rng.uniform(0, 6, (rows, width)) + 1j * rng.uniform(0, 6, (rows, width))
+    grid = rng.integers(0, 12, (rows, width)) / 2 + 1j * rng.integers(0, 12, (rows, width)) / 2
+    pts[::2] = grid[::2]
+    last = rng.integers(0, width, rows)
+    for r in range(rows):
+        pts[r, last[r] :] = pts[r, last[r]]
+    idx = np.minimum(rng.integers(0, width, rows), last)
+    return pts, idx
+
+
+def all_cases(seed: int):
+    """Every compiled function on the same random cases: (name, compiled answer, numpy's)."""
+    rng = np.random.default_rng(seed)
+    polys = polygons(rng, 60)
+    for a in range(len(polys)):
+        for b in range(len(polys)):
+            pa, pb = polys[a], polys[b]
+            yield "polygon_gap", polygon_gap(pa, pb), np_polygon_gap(pa, pb)
+    for origin, direction in lines(rng, polys, 600):
+        for poly in polys[:20]:
+            yield (
+                "clip_line",
+                clip_line(origin, direction, poly),
+                np_clip_line(origin, direction, poly),
+            )
+    for _ in range(200):
+        n, width = int(rng.integers(1, 12)), int(rng.integers(2, 9))
+        points = rng.uniform(0, 6, n) + 1j * rng.uniform(0, 6, n)
+        path = paths(rng, 1, width)[0][0]
+        yield "path_gaps", path_gaps(points, path), np_path_gaps(points, path)
+        pts, idx = paths(rng, int(rng.integers(1, 9)), width)
+        z = rng.uniform(0, 6, len(pts)) + 1j * rng.uniform(0, 6, len(pts))
+        yield "way_gaps", compiled.way_gaps(points, z, pts, idx), np_way_gaps(points, z, pts, idx)
+
+
+def _flat(answer) -> np.ndarray:
+    """An answer (a tuple of numbers or an array) as one complex array."""
+    if isinstance(answer, tuple):
+        return np.array(answer, dtype=complex)
+    return np.asarray(answer, dtype=complex)
+
+
+def exact_mismatches(seed: int) -> dict[str, list[int]]:
+    """{function: [cases checked, cases not equal bit for bit]}."""
+    out: dict[str, list[int]] = {}
+    for name, got, want in all_cases(seed):
+        tally = out.setdefault(name, [0, 0])
+        tally[0] += 1
+        g, w = _flat(got), _flat(want)
+        same = g.shape == w.shape and bool((g.view(np.uint64) == w.view(np.uint64)).all())
+        tally[1] += not same
+    return out
+
+
+# -- tests ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("seed", [0, 1])
+def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
+    """With this CPU's numpy kernels (fused or not): every answer within 1e-12 m, the same
+    touch (0) or miss (inf) where numpy has one; two polygons' nearest points may be another
+    pair of a tie (parallel edges), as far apart as the gap."""
+    counts: dict[str, int] = {}
+    for name, got, want in all_cases(seed):
+        counts[name] = counts.get(name, 0) + 1
+        if name == "polygon_gap" and want[0] > 0:  # parallel edges tie: any nearest pair
+            gap, p, q = got
+            assert gap == pytest.approx(want[0], abs=1e-12)
+            assert abs(q - p) == pytest.approx(gap, abs=1e-12)
+            got, want = got[0], want[0]
+        g, w = _flat(got), _flat(want)
+        assert g.shape == w.shape, name
+        finite = np.isfinite(w)
+        assert (np.isfinite(g) == finite).all(), (name, got, want)
+        assert (g[~finite] == w[~finite]).all(), (name, got, want)
+        np.testing.assert_allclose(g[finite], w[finite], rtol=0, atol=1e-12, err_msg=name)
+    assert counts == {"polygon_gap": 3600, "clip_line": 12000, "path_gaps": 200, "way_gaps": 200}
+
+
+def test_cases_hold_touches_overlaps_misses_and_parallel_lines():
+    """The random cases reach the branches that decide by a tie: polygons that overlap (gap
+    0) and that stand apart, lines that miss, lines parallel to an edge (the rate-0 branch)."""
+    gaps = [want[0] for name, _, want in all_cases(0) if name == "polygon_gap"]
+    clips = [want for name, _, want in all_cases(0) if name == "clip_line"]
+    assert 0.1 < np.mean(np.array(gaps) == 0.0) < 0.5
+    assert 0.2 < np.mean([lo > hi for lo, hi in clips]) < 0.95
+    rng = np.random.default_rng(0)
+    polys = polygons(rng, 60)
+    parallel = 0
+    for _, direction in lines(rng, polys, 600):
+        for poly in polys[:20]:
+            edge = _next(poly) - poly
+            parallel += bool((np.abs((edge.conj() * direction).imag) < 1e-15).any())
+    assert parallel > 1000
+
+
+def test_compiled_geometry_is_numpys_bit_for_bit_with_baseline_kernels():
+    """In a child Python with numpy's baseline kernels (what the golden runs use), every
+    answer is numpy's to the last bit."""
+    env = {**os.environ, **PORTABLE_ENV, "PYTHONPATH": str(ROOT)}
+    code = (
+        f"import json, runpy; ns = runpy.run_path({__file__!r}); "
+        "print(json.dumps({s: ns['exact_mismatches'](s) for s in (0, 1)}))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    tallies = json.loads(out.stdout.strip().splitlines()[-1])
+    for seed, by_name in tallies.items():
+        for name, (checked, differ) in by_name.items():
+            assert checked > 0 and differ == 0, (seed, name, checked, differ)
+
+
+def test_polygon_gap_and_clip_line_on_squares():
+    a = np.array([0, 1, 1 + 1j, 1j])
+    b = a + 3 + 0.5j
+    # a's corner 1 + i is 2 m from b's edge, as b's corner 3 + 0.5i is from a's: a's first
+    assert polygon_gap(a, b) == np_polygon_gap(a, b) == (2.0, 1 + 1j, 3 + 1j)
+    assert polygon_gap(a, a + 0.5 + 0.5j)[0] == 0.0  # overlapping
+    assert polygon_gap(a, a + 1)[0] == 0.0  # sharing an edge: touching
+    assert clip_line(0.5j, 1, a) == pytest.approx((0.0, 1.0), abs=2e-9)  # boundary: TOL_M
+    lo, hi = clip_line(2j, 1, a)
+    assert lo > hi  # parallel to the top edge, above it: missed
+
+
+def test_path_gaps_and_way_gaps_measure_from_the_way_ahead_only():
+    path = np.array([0, 4, 4 + 4j])
+    assert path_gaps(np.array([2 + 1j, 5 + 2j, 2 + 1j]), path).tolist() == [1.0, 1.0, 1.0]
+    assert path_gaps(np.array([1j]), path[:1]).tolist() == [np.inf]
+    pts = np.array([[0, 4, 4 + 4j]])
+    point = np.array([2 - 1j])  # 1 m beside the first segment
+    behind = compiled.way_gaps(point, np.array([4 + 1j]), pts, np.array([2]))
+    assert behind[0] == pytest.approx(abs(2 - 1j - (4 + 1j)))  # the first is behind
+    ahead = compiled.way_gaps(point, np.array([0j]), pts, np.array([1]))
+    assert ahead[0] == pytest.approx(1.0)
+
+
+if __name__ == "__main__":  # pragma: no cover - the child of the bit-for-bit test
+    print(exact_mismatches(0))

@@ -23,12 +23,11 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
 
 from sim.scenario import SpatialSpec
 from sim.spatial.navigation.buckets import BoxBuckets, typical_size
 from sim.spatial.navigation.distfield import SHARED, DistanceField
+from sim.spatial.navigation.geodesics import visibility_geodesics
 from sim.spatial.navigation.segments import blocked_segments
 
 _TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
@@ -197,13 +196,8 @@ class GridPlanner:
         i, j = _pairs(nv)
         ok = ~self.blocked(v[i], v[j]) if known is None else self._visible(*known, i, j)
         self.seen_ = ok
-        i, j = i[ok], j[ok]
-        w = np.linalg.norm(v[i] - v[j], axis=1) + 1e-12  # coincident vertices stay joined
-        # the pairs come row by row, columns rising: they are the sparse rows as they stand
-        indptr = np.zeros(nv + 1, dtype=np.int32)
-        np.cumsum(np.bincount(i, minlength=nv), out=indptr[1:])
-        graph = csr_matrix((w, j.astype(np.int32), indptr), shape=(nv, nv))
-        self.apsp_, self.pred_ = dijkstra(graph, directed=False, return_predecessors=True)
+        # scipy's undirected Dijkstra from every vertex, compiled (the same numbers)
+        self.apsp_, self.pred_ = visibility_geodesics(v, i[ok], j[ok])
 
     def _visible(self, known: GridPlanner, n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
         """Whether vertices i[s] and j[s] see each other, :meth:`_build_graph`'s test: a pair

@@ -27,6 +27,7 @@ from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
 from sim.spatial.sites import Sites
 from sim.spatial.stalls import nearest_other
+from sim.spatial.traffic.compiled import way_waits
 from sim.states import DRIVING, WORKING
 
 # the rules, as counted (Jams.fired): a jam acted on at once, a way round taken, a wait for one
@@ -188,37 +189,21 @@ class Jams:
         does not pass within ``ahead_block_m``, or the robot at work is at its own site), the
         way's length to the point nearest it, m, and how near the way passes it (inf: it
         works at the robot's own site), m."""
-        f, fol, z = self.fleet, self.follower, self.fleet.last_z_m
-        pts, idx, last = fol.points[rows], fol.index[rows], fol.last[rows]
-        col = np.arange(pts.shape[1])
-        prev = np.concatenate((pts[:, -1:], pts[:, :-1]), axis=1)  # np.roll(pts, 1, axis=1)
-        start = np.where(col == idx[:, None], z[rows, None], prev)
-        seg = pts - start  # (n, P): the segment into each waypoint; the first from the robot
-        live = (col >= idx[:, None]) & (col <= last[:, None])
-        seg2 = (seg * seg.conj()).real
-        rel = z[work][None, :, None] - start[:, None, :]  # (n, w, P)
-        frac = (rel * seg.conj()[:, None, :]).real / np.maximum(seg2, 1e-18)[:, None, :]
-        frac = np.clip(frac, 0.0, 1.0)
-        gap = np.abs(rel - frac * seg[:, None, :])
-        gap = np.where(live[:, None, :], gap, np.inf)
-        near = gap.argmin(axis=2)  # (n, w): the segment passing nearest
-        pick = np.take_along_axis
-        nearest = pick(gap, near[..., None], axis=2)[..., 0]
-        close = nearest < self.rules.ahead_block_m
-        seg_m = np.sqrt(seg2)
-        after = fol.after_m[rows]
-        rest = pick(after, near, axis=1) + (
-            1.0 - pick(frac, near[..., None], axis=2)[..., 0]
-        ) * pick(seg_m, near, axis=1)
-        total = np.abs(pick(pts, idx[:, None], axis=1) - z[rows, None]) + pick(
-            after, idx[:, None], axis=1
+        f, fol, z, service = self.fleet, self.follower, self.fleet.last_z_m, self.sites.service
+        return way_waits(
+            fol.points[rows],
+            fol.index[rows],
+            fol.last[rows],
+            fol.after_m[rows],
+            z[rows],
+            service[rows],
+            z[work],
+            service[work],
+            f.work_end_s[work],
+            float(t),
+            float(fol.v_max_mps),
+            float(self.rules.ahead_block_m),
         )
-        along = total - rest
-        other = np.abs(self.sites.service[rows, None] - self.sites.service[work][None, :]) > 1e-6
-        left = f.work_end_s[work][None, :] - t - along / fol.v_max_mps
-        ahead = along > self.rules.ahead_block_m  # ahead of it, not beside it already
-        wait = np.where(close & ahead & other, np.maximum(left, 0.0), 0.0)
-        return wait, along, np.where(other, nearest, np.inf)
 
     def standing_near(self, t: float) -> list[tuple[int, int]]:
         """Collision avoidance on: (j, k) for each driving robot j commanded to stand (below

@@ -39,13 +39,19 @@ def _modulus(x: float, y: float) -> float:
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _clip01(x: float) -> float:
+    """``np.clip(x, 0.0, 1.0)`` as numpy computes it (a -0.0 comes out as 0.0)."""
+    x = x if x > 0.0 else 0.0
+    return x if x < 1.0 else 1.0
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _to_segment(p: complex, a: complex, b: complex) -> tuple[float, complex]:
     """Distance from p to segment a -> b and its nearest point (``geometry.to_segments``)."""
     dr, di = b.real - a.real, b.imag - a.imag
     dd = max(dr * dr - di * -di, 1e-24)  # (d conj(d)).real
     ur, ui = p.real - a.real, p.imag - a.imag
-    t = (ur * dr - ui * -di) / dd  # ((p - a) conj(d)).real / dd
-    t = min(max(t, 0.0), 1.0)
+    t = _clip01((ur * dr - ui * -di) / dd)  # ((p - a) conj(d)).real / dd
     near = complex(a.real + (t * dr - 0.0 * di), a.imag + (t * di + 0.0 * dr))  # a + t d
     return _modulus(p.real - near.real, p.imag - near.imag), near
 
@@ -155,3 +161,77 @@ def way_gaps(points: np.ndarray, z: np.ndarray, paths: np.ndarray, index: np.nda
                     best = d
         out[r] = best
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def way_waits(
+    pts: np.ndarray,
+    idx: np.ndarray,
+    last: np.ndarray,
+    after: np.ndarray,
+    z: np.ndarray,
+    service: np.ndarray,
+    work_z: np.ndarray,
+    work_service: np.ndarray,
+    work_end_s: np.ndarray,
+    t: float,
+    v_max: float,
+    block_m: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For robots on the (n, P) paths ``pts`` (aiming at waypoint ``idx``, the last one
+    ``last``, path left after each waypoint ``after``, at ``z``, for sites ``service``) and
+    robots at work at ``work_z`` (for sites ``work_service``, done at ``work_end_s``), each
+    (n, w): how long each would wait for each (work left after getting there along its way
+    at ``v_max``; 0 where the way passes no nearer than ``block_m``, the robot at work is not
+    more than ``block_m`` ahead along it, or works at the robot's own site), the way's length
+    to the point nearest it, and how near the way passes it (inf: it works at the robot's
+    own site), m (``sim.spatial.jams.Jams.waits``)."""
+    n, width = pts.shape
+    w = len(work_z)
+    wait = np.zeros((n, w))
+    along = np.zeros((n, w))
+    gap_out = np.zeros((n, w))
+    start = np.empty(width, dtype=np.complex128)
+    seg = np.empty(width, dtype=np.complex128)
+    seg2 = np.empty(width)
+    seg_m = np.empty(width)
+    for r in range(n):
+        for c in range(width):  # the segment into each waypoint; the first from the robot
+            if c == idx[r]:
+                start[c] = z[r]
+            else:
+                start[c] = pts[r, c - 1] if c > 0 else pts[r, width - 1]
+            sr, si = pts[r, c].real - start[c].real, pts[r, c].imag - start[c].imag
+            seg[c] = complex(sr, si)
+            seg2[c] = sr * sr - si * -si
+            seg_m[c] = math.sqrt(seg2[c])
+        aim = pts[r, idx[r]]
+        total = _modulus(aim.real - z[r].real, aim.imag - z[r].imag) + after[r, idx[r]]
+        for k in range(w):
+            best, near, best_frac = math.inf, 0, 0.0
+            for c in range(width):
+                sr, si = seg[c].real, seg[c].imag
+                rr = work_z[k].real - start[c].real
+                ri = work_z[k].imag - start[c].imag
+                frac = _clip01((rr * sr - ri * -si) / max(seg2[c], 1e-18))
+                if c == 0:
+                    best_frac = frac  # numpy's argmin of all inf: the first
+                if not (idx[r] <= c <= last[r]):
+                    continue  # not on the way ahead: inf, never the least
+                gap = _modulus(rr - (frac * sr - 0.0 * si), ri - (frac * si + 0.0 * sr))
+                if gap < best:
+                    best, near, best_frac = gap, c, frac
+            rest = after[r, near] + (1.0 - best_frac) * seg_m[near]
+            way = total - rest
+            other = (
+                _modulus(
+                    service[r].real - work_service[k].real, service[r].imag - work_service[k].imag
+                )
+                > 1e-6
+            )
+            left = work_end_s[k] - t - way / v_max
+            along[r, k] = way
+            if best < block_m and way > block_m and other:
+                wait[r, k] = left if left >= 0.0 else 0.0  # np.maximum(left, 0.0)
+            gap_out[r, k] = best if other else math.inf
+    return wait, along, gap_out

@@ -88,6 +88,35 @@ def np_way_gaps(points, z, pts, idx):
     return gap
 
 
+def np_way_waits(pts, idx, last, after, z, service, work_z, work_service, end_s, t, v_max, block):
+    col = np.arange(pts.shape[1])
+    prev = np.concatenate((pts[:, -1:], pts[:, :-1]), axis=1)
+    start = np.where(col == idx[:, None], z[:, None], prev)
+    seg = pts - start
+    live = (col >= idx[:, None]) & (col <= last[:, None])
+    seg2 = (seg * seg.conj()).real
+    rel = work_z[None, :, None] - start[:, None, :]
+    frac = (rel * seg.conj()[:, None, :]).real / np.maximum(seg2, 1e-18)[:, None, :]
+    frac = np.clip(frac, 0.0, 1.0)
+    gap = np.abs(rel - frac * seg[:, None, :])
+    gap = np.where(live[:, None, :], gap, np.inf)
+    near = gap.argmin(axis=2)
+    pick = np.take_along_axis
+    nearest = pick(gap, near[..., None], axis=2)[..., 0]
+    close = nearest < block
+    seg_m = np.sqrt(seg2)
+    rest = pick(after, near, axis=1) + (1.0 - pick(frac, near[..., None], axis=2)[..., 0]) * pick(
+        seg_m, near, axis=1
+    )
+    total = np.abs(pick(pts, idx[:, None], axis=1) - z[:, None]) + pick(after, idx[:, None], axis=1)
+    along = total - rest
+    other = np.abs(service[:, None] - work_service[None, :]) > 1e-6
+    left = end_s[None, :] - t - along / v_max
+    ahead = along > block
+    wait = np.where(close & ahead & other, np.maximum(left, 0.0), 0.0)
+    return wait, along, np.where(other, nearest, np.inf)
+
+
 # -- cases ---------------------------------------------------------------------------------
 def polygons(rng: np.random.Generator, n: int) -> list[np.ndarray]:
     """Convex CCW polygons: robots' octagons at random points, turned polygons of 3 to 8
@@ -130,12 +159,15 @@ def lines(rng: np.random.Generator, polys: list[np.ndarray], n: int):
     return out
 
 
-def paths(rng: np.random.Generator, rows: int, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """(rows, width) polylines padded with their last point, some on the half-metre grid, and
-    the waypoint each aims at."""
+def paths(
+    rng: np.random.Generator, rows: int, width: int, grid: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, width) polylines padded with their last point, every other one on the
+    half-metre grid (with ``grid``), and the waypoint each aims at."""
     pts = rng.uniform(0, 6, (rows, width)) + 1j * rng.uniform(0, 6, (rows, width))
-    grid = rng.integers(0, 12, (rows, width)) / 2 + 1j * rng.integers(0, 12, (rows, width)) / 2
-    pts[::2] = grid[::2]
+    on_grid = rng.integers(0, 12, (rows, width)) / 2 + 1j * rng.integers(0, 12, (rows, width)) / 2
+    if grid:
+        pts[::2] = on_grid[::2]
     last = rng.integers(0, width, rows)
     for r in range(rows):
         pts[r, last[r] :] = pts[r, last[r]]
@@ -166,6 +198,19 @@ def all_cases(seed: int):
         pts, idx = paths(rng, int(rng.integers(1, 9)), width)
         z = rng.uniform(0, 6, len(pts)) + 1j * rng.uniform(0, 6, len(pts))
         yield "way_gaps", compiled.way_gaps(points, z, pts, idx), np_way_gaps(points, z, pts, idx)
+        for name, grid in (("way_waits", False), ("way_waits_grid", True)):
+            pts, idx = paths(rng, len(pts), width, grid)
+            last = np.maximum(idx, rng.integers(0, width, len(pts)))
+            if grid:  # a way with nothing ahead (aiming past its end): numpy's first segment
+                last[rng.random(len(pts)) < 0.2] = -1
+            seg = np.abs(np.diff(pts, axis=1))  # path left after each waypoint, as a follower's
+            after = np.cumsum(seg[:, ::-1], axis=1)[:, ::-1]
+            after = np.concatenate([after, np.zeros((len(pts), 1))], axis=1)
+            sites = rng.integers(0, 3, len(pts)) + 0j
+            args = (pts, idx, last, after, z, sites, points, rng.integers(0, 3, n) + 0j)
+            args += (rng.uniform(0, 30, n), float(rng.uniform(0, 10)), 0.7, 0.6)
+            got, want = compiled.way_waits(*args), np_way_waits(*args)
+            yield name, np.concatenate(got, axis=None), np.concatenate(want, axis=None)
 
 
 def _flat(answer) -> np.ndarray:
@@ -192,10 +237,13 @@ def exact_mismatches(seed: int) -> dict[str, list[int]]:
 def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
     """With this CPU's numpy kernels (fused or not): every answer within 1e-12 m, the same
     touch (0) or miss (inf) where numpy has one; two polygons' nearest points may be another
-    pair of a tie (parallel edges), as far apart as the gap."""
+    pair of a tie (parallel edges), as far apart as the gap. Ways on a grid, where a robot at
+    work is often equally near two segments, are held to numpy's answers in the child only."""
     counts: dict[str, int] = {}
     for name, got, want in all_cases(seed):
         counts[name] = counts.get(name, 0) + 1
+        if name.endswith("_grid"):
+            continue  # equal gaps to two segments: rounding may pick the other one here
         if name == "polygon_gap" and want[0] > 0:  # parallel edges tie: any nearest pair
             gap, p, q = got
             assert gap == pytest.approx(want[0], abs=1e-12)
@@ -207,7 +255,14 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         assert (np.isfinite(g) == finite).all(), (name, got, want)
         assert (g[~finite] == w[~finite]).all(), (name, got, want)
         np.testing.assert_allclose(g[finite], w[finite], rtol=0, atol=1e-12, err_msg=name)
-    assert counts == {"polygon_gap": 3600, "clip_line": 12000, "path_gaps": 200, "way_gaps": 200}
+    assert counts == {
+        "polygon_gap": 3600,
+        "clip_line": 12000,
+        "path_gaps": 200,
+        "way_gaps": 200,
+        "way_waits": 200,
+        "way_waits_grid": 200,
+    }
 
 
 def test_cases_hold_touches_overlaps_misses_and_parallel_lines():

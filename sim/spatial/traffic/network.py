@@ -72,6 +72,8 @@ class PassageMap:
             [[s.real.min(), s.imag.min(), s.real.max(), s.imag.max()] for s in self.shapes]
         )
         self.room_: dict[tuple[int, int, int, int], bool] = {}  # room_between, static pairs
+        self.version_ = 0  # counts the changes of ``passages`` (update_workers)
+        self.table_: tuple = (-1,)  # _near_box's arrays of them, and the version they hold
 
     # -- passages -------------------------------------------------------------------------
     def inside(self, key: int, z: complex, pad_along_m: float) -> bool:
@@ -90,13 +92,17 @@ class PassageMap:
         p = self.passages.get(self.n_static + w)
         return p is None or p.passable
 
-    def for_robot(self, j: int, end: complex, service: np.ndarray) -> dict[int, Passage]:
+    def for_robot(
+        self, j: int, end: complex, service: np.ndarray, way: np.ndarray | None = None
+    ) -> dict[int, Passage]:
         """The passages robot j's path (ending at ``end``) may be annotated with: not the
         temporary passage of a robot at work at its own site (``service``: each robot's
         service point), nor one its path ends in (it goes to that robot's site's queue, not
-        past it)."""
+        past it). With ``way`` (the path, x + iy), only those :func:`crossings` looks at
+        (a centre within half the length plus half the width of the path's box)."""
         r, out = self.radius_m, {}
-        for key, p in self.passages.items():
+        items = self.passages.items() if way is None else self._near_box(way)
+        for key, p in items:
             if p.worker >= 0 and (
                 p.worker == j or abs(service[p.worker] - service[j]) < 1e-6 or p.holds(end, r, r)
             ):
@@ -104,12 +110,30 @@ class PassageMap:
             out[key] = p
         return out
 
+    def _near_box(self, way: np.ndarray) -> list[tuple[int, Passage]]:
+        """(key, passage) in ``passages``' order for those whose centre lies within its
+        half length plus half width of the box of the points ``way``, as :func:`crossings`
+        tests it (the same sums and comparisons, on arrays)."""
+        if self.table_[0] != self.version_:
+            items = list(self.passages.items())
+            cx = np.array([p.centre.real for _, p in items])
+            cy = np.array([p.centre.imag for _, p in items])
+            reach = np.array([p.half_length_m + p.half_width_m for _, p in items])
+            self.table_ = (self.version_, items, cx, cy, reach)
+        _, items, cx, cy, reach = self.table_
+        lo = complex(way.real.min(), way.imag.min())
+        hi = complex(way.real.max(), way.imag.max())
+        keep = (lo.real - reach <= cx) & (cx <= hi.real + reach)
+        keep &= (lo.imag - reach <= cy) & (cy <= hi.imag + reach)
+        return [items[k] for k in keep.nonzero()[0].tolist()]
+
     def update_workers(self, changed: np.ndarray, work: np.ndarray, z: np.ndarray) -> tuple:
         """Robots ``changed`` began or ended work (``work``: who works now, at ``z``): their
         temporary passages, and those of the robots at work near them (their room depends on
         each other), are made again. Returns the keys dropped, the number of new passages and
         the robots whose passage came, went or changed."""
         r = self.radius_m
+        self.version_ += 1  # the passages may change: _near_box's table is built again
         dropped, touched = [], []
         for w in changed.tolist():
             if self.passages.pop(self.n_static + w, None) is not None:

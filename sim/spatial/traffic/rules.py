@@ -294,7 +294,7 @@ class Traffic:
             self.chains[j], self.granted[j] = [], None
             return
         pts = np.concatenate([[f.last_z_m[j]], fol.points[j, int(fol.index[j]) : last + 1]])
-        found = crossings(pts, self.map.for_robot(j, complex(pts[-1]), self.sites.service))
+        found = crossings(pts, self.map.for_robot(j, complex(pts[-1]), self.sites.service, pts))
         if round_workers and self._round_workers(j, pts, t):
             return self.annotate(j, t, round_workers=False)
         clear = self.radius_m + self.spec.exit_clear_m
@@ -316,14 +316,17 @@ class Traffic:
         speed takes less than the work left of one that closes its aisle. True if the path
         changed."""
         f, r = self.fleet, self.radius_m
-        other = np.abs(self.sites.service - self.sites.service[j]) > 1e-6
-        for w in (self.working & ~other).nonzero()[0].tolist():
-            other[w] = self.map.narrowed_by_walls(w)  # its own site's, in an aisle
-        work = self.working & other
-        work[j] = False
-        if self.spec.at_work != "on" or not work.any():
+        if self.spec.at_work != "on":
             return False
-        rows = work.nonzero()[0]
+        rows = self.working.nonzero()[0]
+        service = self.sites.service
+        other = np.abs(service[rows] - service[j]) > 1e-6
+        for k in (~other).nonzero()[0].tolist():
+            other[k] = self.map.narrowed_by_walls(int(rows[k]))  # its own site's, in an aisle
+        other &= rows != j
+        rows = rows[other]
+        if not len(rows):
+            return False
         pass_m = self.map.pass_m
         zw = f.last_z_m[rows]  # those outside the way's box grown by a pass cannot be near it
         box = (zw.real > pts.real.min() - pass_m) & (zw.real < pts.real.max() + pass_m)

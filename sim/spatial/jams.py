@@ -25,9 +25,9 @@ from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import FleetState
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.plane import way_waits
 from sim.spatial.sites import Sites
 from sim.spatial.stalls import nearest_other
-from sim.spatial.traffic.compiled import way_waits
 from sim.states import DRIVING, WORKING
 
 # the rules, as counted (Jams.fired): a jam acted on at once, a way round taken, a wait for one

@@ -3,7 +3,8 @@
 Fleets keep robots from meeting head-on where they cannot pass each other with mutex zones and
 holding points (Open-RMF), zone control (AGVs) or block signalling (railways). Here:
 
-- ``geometry``: convex polygons, lines through them, rectangles (pure functions);
+- ``geometry``: convex polygons, lines through them, rectangles (pure functions; the ones
+  asked per event are compiled in ``sim.spatial.plane``);
 - ``passages``: the passages found from the arena at load (gaps narrower than two lanes) and
   the temporary ones beside a robot at work;
 - ``annotate``: a path's crossings of passages, grouped into chains, and the holding points

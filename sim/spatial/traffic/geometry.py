@@ -10,9 +10,9 @@ import functools
 
 import numpy as np
 
-from sim.spatial.traffic import compiled
+from sim.spatial import plane
 
-TOL_M = compiled.TOL_M  # a line touching a polygon's boundary meets it
+TOL_M = plane.TOL_M  # a line touching a polygon's boundary meets it
 
 
 def as_complex(poly) -> np.ndarray:
@@ -44,23 +44,23 @@ def _poly(poly) -> np.ndarray:
 def polygon_gap(pa: np.ndarray, pb: np.ndarray) -> tuple[float, complex, complex]:
     """Distance between two disjoint convex polygons and the nearest points (on ``pa``, on
     ``pb``); 0 where they touch or overlap (then the points are a vertex and its nearest).
-    Compiled (``sim.spatial.traffic.compiled``)."""
-    return compiled.polygon_gap(_poly(pa), _poly(pb))
+    Compiled (``sim.spatial.plane``)."""
+    return plane.polygon_gap(_poly(pa), _poly(pb))
 
 
 def clip_line(origin: complex, direction: complex, poly: np.ndarray) -> tuple[float, float]:
     """The interval of t where ``origin + t direction`` lies in the convex CCW polygon
     (boundary included); (inf, -inf) if the line misses it. Compiled
-    (``sim.spatial.traffic.compiled``)."""
-    return compiled.clip_line(complex(origin), complex(direction), _poly(poly))
+    (``sim.spatial.plane``)."""
+    return plane.clip_line(complex(origin), complex(direction), _poly(poly))
 
 
 def path_gaps(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     """(n,) distance from each of ``points`` (x + iy) to the polyline ``path``: the least of
     :func:`to_segments` over its segments (inf for a path of fewer than two points), m.
-    Compiled (``sim.spatial.traffic.compiled``)."""
+    Compiled (``sim.spatial.plane``)."""
     pts = np.ascontiguousarray(points, dtype=complex).reshape(-1)
-    return compiled.path_gaps(pts, np.ascontiguousarray(path, dtype=complex).reshape(-1))
+    return plane.path_gaps(pts, np.ascontiguousarray(path, dtype=complex).reshape(-1))
 
 
 def clip_segments(

@@ -27,9 +27,9 @@ from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import FleetState
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.plane import way_gaps
 from sim.spatial.sites import Sites
 from sim.spatial.traffic.annotate import Chain, chains, crossings, left_along
-from sim.spatial.traffic.compiled import way_gaps
 from sim.spatial.traffic.geometry import path_gaps
 from sim.spatial.traffic.locks import Locks
 from sim.spatial.traffic.network import PassageMap

@@ -1,9 +1,9 @@
-"""``sim.spatial.traffic.compiled``: the traffic layer's compiled geometry gives numpy's
+"""``sim.spatial.plane``: the event rules' compiled geometry gives numpy's
 answers, bit for bit with numpy's baseline kernels (the golden runs' numerics, checked in a
 child Python with ``NPY_ENABLE_CPU_FEATURES=X86_V2``) and within rounding with the kernels
 this CPU dispatches; and the cases that decide by a tie or a touch come out as numpy's do.
 
-The numpy functions below are the traffic layer's geometry as it was written in numpy: the
+The numpy functions below are that geometry as it was written in numpy: the
 reference the compiled functions are held to.
 """
 
@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.spatial.traffic import compiled
+from sim.spatial import plane
 from sim.spatial.traffic.geometry import TOL_M, clip_line, disc_polygon, path_gaps, polygon_gap
 from sim.spatial.traffic.geometry import to_segments as np_to_segments
 
-ROOT = Path(__file__).resolve().parents[4]
+ROOT = Path(__file__).resolve().parents[3]
 PORTABLE_ENV = {"NPY_ENABLE_CPU_FEATURES": "X86_V2"}  # as tests/golden/cases.py
 
 
@@ -197,7 +197,7 @@ def all_cases(seed: int):
         yield "path_gaps", path_gaps(points, path), np_path_gaps(points, path)
         pts, idx = paths(rng, int(rng.integers(1, 9)), width)
         z = rng.uniform(0, 6, len(pts)) + 1j * rng.uniform(0, 6, len(pts))
-        yield "way_gaps", compiled.way_gaps(points, z, pts, idx), np_way_gaps(points, z, pts, idx)
+        yield "way_gaps", plane.way_gaps(points, z, pts, idx), np_way_gaps(points, z, pts, idx)
         for name, grid in (("way_waits", False), ("way_waits_grid", True)):
             pts, idx = paths(rng, len(pts), width, grid)
             last = np.maximum(idx, rng.integers(0, width, len(pts)))
@@ -209,7 +209,7 @@ def all_cases(seed: int):
             sites = rng.integers(0, 3, len(pts)) + 0j
             args = (pts, idx, last, after, z, sites, points, rng.integers(0, 3, n) + 0j)
             args += (rng.uniform(0, 30, n), float(rng.uniform(0, 10)), 0.7, 0.6)
-            got, want = compiled.way_waits(*args), np_way_waits(*args)
+            got, want = plane.way_waits(*args), np_way_waits(*args)
             yield name, np.concatenate(got, axis=None), np.concatenate(want, axis=None)
 
 
@@ -317,9 +317,9 @@ def test_path_gaps_and_way_gaps_measure_from_the_way_ahead_only():
     assert path_gaps(np.array([1j]), path[:1]).tolist() == [np.inf]
     pts = np.array([[0, 4, 4 + 4j]])
     point = np.array([2 - 1j])  # 1 m beside the first segment
-    behind = compiled.way_gaps(point, np.array([4 + 1j]), pts, np.array([2]))
+    behind = plane.way_gaps(point, np.array([4 + 1j]), pts, np.array([2]))
     assert behind[0] == pytest.approx(abs(2 - 1j - (4 + 1j)))  # the first is behind
-    ahead = compiled.way_gaps(point, np.array([0j]), pts, np.array([1]))
+    ahead = plane.way_gaps(point, np.array([0j]), pts, np.array([1]))
     assert ahead[0] == pytest.approx(1.0)
 
 

@@ -1,18 +1,20 @@
-"""The traffic layer's plane geometry on small arrays, compiled: the gap between two convex
-polygons, a line clipped to one, and the distance from points to a path.
+"""The event rules' plane geometry on small arrays, compiled: the gap between two convex
+polygons, a line clipped to one, the distance from points to a path, how long a robot would
+wait for robots at work on its way, and a robot's free place at its site.
 
-The traffic rules ask these questions many times per event (every robot at work against the
-shapes near it, every path against the robots standing near it), on arrays of a few to a few
-hundred points, where numpy's cost is its calls, not its arithmetic. The arithmetic here is
-numpy's baseline x86-64 kernels' (``NPY_ENABLE_CPU_FEATURES=X86_V2``, the golden runs'), term
-by term and in the same order: a complex product is ``(ar br - ai bi, ar bi + ai br)``, a
-complex modulus is ``l * sqrt(1 + (s / l)^2)`` of the larger and smaller part, and nothing is
-fused (numba fuses a multiply and an add only with ``fastmath``). So the answers are numpy's
-bit for bit there (tests/sim/spatial/traffic/test_compiled.py); with numpy's AVX2 kernels,
-which fuse, numpy's own last bits differ from these.
+The traffic rules (``sim.spatial.traffic``), look-ahead (``sim.spatial.jams``) and the site
+queues (``sim.spatial.sites``) ask these questions many times per event, on arrays of a few
+to a few thousand points, where numpy's cost is its calls and temporaries, not its
+arithmetic. The arithmetic here is numpy's baseline x86-64 kernels'
+(``NPY_ENABLE_CPU_FEATURES=X86_V2``, the golden runs'), term by term and in the same order: a
+complex product is ``(ar br - ai bi, ar bi + ai br)``, a complex modulus is
+``l * sqrt(1 + (s / l)^2)`` of the larger and smaller part, and nothing is fused (numba fuses
+a multiply and an add only with ``fastmath``). So the answers are numpy's bit for bit there
+(tests/sim/spatial/test_plane.py); with numpy's AVX2 kernels, which fuse, numpy's own last
+bits differ from these.
 
-numba caches the compiled functions beside this module (``__pycache__``); a cold cache costs a
-few seconds, once.
+numba caches the compiled functions beside this module (``__pycache__``); a cold cache costs
+a few seconds, once.
 """
 
 from __future__ import annotations

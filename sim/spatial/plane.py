@@ -237,3 +237,45 @@ def way_waits(
                 wait[r, k] = left if left >= 0.0 else 0.0  # np.maximum(left, 0.0)
             gap_out[r, k] = best if other else math.inf
     return wait, along, gap_out
+
+
+@numba.njit(cache=True, nogil=True)
+def free_place(
+    places: np.ndarray,
+    site: complex,
+    kept: np.ndarray,
+    keeping: np.ndarray,
+    z: np.ndarray,
+    standing: np.ndarray,
+    lim: float,
+    room: float,
+    here: complex,
+) -> int:
+    """The index in ``places`` (a site's places, its service point first) of the one a robot
+    at ``here`` would be given, or -1 if every one is taken: a place is taken when a kept
+    place (``kept[k]`` where ``keeping[k]``) or a standing robot (``z[k]`` where
+    ``standing[k]``), either within ``lim`` of ``site`` in x and in y, lies closer than
+    ``room`` to it; the service point if free, else the free place nearest ``here`` (the
+    first of equals) (``sim.spatial.sites.Sites.free_place``)."""
+    n = len(places)
+    taken = np.zeros(n, dtype=np.bool_)
+    for which in range(2):
+        points, mask = (kept, keeping) if which == 0 else (z, standing)
+        for k in range(len(points)):
+            if not mask[k]:
+                continue
+            p = points[k]
+            if not (abs(p.real - site.real) <= lim and abs(p.imag - site.imag) <= lim):
+                continue
+            for c in range(n):
+                if _modulus(p.real - places[c].real, p.imag - places[c].imag) < room:
+                    taken[c] = True
+    if not taken[0]:
+        return 0
+    best, pick = math.inf, -1
+    for c in range(n):
+        if not taken[c]:
+            d = _modulus(places[c].real - here.real, places[c].imag - here.imag)
+            if d < best:
+                best, pick = d, c
+    return pick

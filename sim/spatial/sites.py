@@ -23,6 +23,7 @@ from sim.spatial.fleet import FleetState, Schedule
 from sim.spatial.law.drive import next_check_s
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.plane import free_place
 from sim.states import DRIVING, IDLE, WORKING
 
 
@@ -237,17 +238,10 @@ class Sites:
         # only a point this near the site in x and in y can be within room of one of its places
         # (each within a slot ring of it; the margin is far above any rounding)
         lim = 2.0 * r + self.rules.slot_gap_m + room + 1e-6
-        kept = _within(f.site[keeping], site, lim)
-        standing = _within(z[f.state != DRIVING], site, lim)
-        taken = np.zeros(len(cand), dtype=bool)
-        if len(kept):
-            taken |= np.abs(kept[:, None] - cand[None, :]).min(axis=0) < room
-        if len(standing):
-            taken |= np.abs(standing[:, None] - cand[None, :]).min(axis=0) < room
-        if taken.all():
-            return None
-        free = (~taken).nonzero()[0]
-        return complex(cand[0] if free[0] == 0 else cand[free[np.abs(cand[free] - z[j]).argmin()]])
+        k = free_place(
+            cand, complex(site), f.site, keeping, z, f.state != DRIVING, lim, room, complex(z[j])
+        )
+        return None if k < 0 else complex(cand[k])
 
     def let_in(self, j: int, place: complex, t: float) -> bool:
         """Robot j goes to ``place`` (:meth:`free_place`) at its site now; one that held has its
@@ -421,9 +415,3 @@ class Sites:
         self.holding = np.array(arrays.get("holding", np.zeros(m)), dtype=bool)
         self.hold_since_s = np.array(arrays.get("hold_since_s", np.full(m, np.inf)), dtype=float)
         self.queue_check_s = float(arrays.get("queue_check_s", -np.inf))
-
-
-def _within(points: np.ndarray, centre: complex, lim: float) -> np.ndarray:
-    """The ``points`` (x + iy) within ``lim`` of ``centre`` in x and in y, in their order."""
-    d = points - centre
-    return points[(np.abs(d.real) <= lim) & (np.abs(d.imag) <= lim)]

@@ -40,6 +40,7 @@ LOCAL_MARGIN_M = 6.0  # ... this much round the start, the goal and the robots, 
 
 
 PAIRS_CACHED = 256  # graphs of at most this many vertices share their index pairs (path_around)
+FREE_ONE_MAX = 16  # GridPlanner.free tests this many points or fewer one by one
 
 
 def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -229,8 +230,12 @@ class GridPlanner:
         return self.vertex_at_
 
     def free(self, xy: np.ndarray) -> np.ndarray:
-        """(n,) True where a robot centre may be: in the arena and clear of every obstacle."""
+        """(n,) True where a robot centre may be: in the arena and clear of every obstacle.
+        A few points (at most ``FREE_ONE_MAX``) are tested one by one (:meth:`free_one`: only
+        the obstacles whose box holds the point, the same sums)."""
         pts = np.asarray(xy, dtype=float).reshape(-1, 2)
+        if len(pts) <= FREE_ONE_MAX:
+            return np.array([self.free_one(x, y) for x, y in pts.tolist()], dtype=bool)
         inside = ((pts >= self.lo_ - _TOL_M) & (pts <= self.hi_ + _TOL_M)).all(axis=1)
         if len(self.polygons_):
             proj = np.einsum("nj,pej->npe", pts, self.normals_) - self.offsets_[None]

@@ -117,6 +117,23 @@ def np_way_waits(pts, idx, last, after, z, service, work_z, work_service, end_s,
     return wait, along, np.where(other, nearest, np.inf)
 
 
+def np_free_place(places, site, kept, keeping, z, standing, lim, room, here):
+    def within(points, centre):
+        d = points - centre
+        return points[(np.abs(d.real) <= lim) & (np.abs(d.imag) <= lim)]
+
+    near_kept, near_standing = within(kept[keeping], site), within(z[standing], site)
+    taken = np.zeros(len(places), dtype=bool)
+    if len(near_kept):
+        taken |= np.abs(near_kept[:, None] - places[None, :]).min(axis=0) < room
+    if len(near_standing):
+        taken |= np.abs(near_standing[:, None] - places[None, :]).min(axis=0) < room
+    if taken.all():
+        return -1
+    free = (~taken).nonzero()[0]
+    return 0 if free[0] == 0 else int(free[np.abs(places[free] - here).argmin()])
+
+
 # -- cases ---------------------------------------------------------------------------------
 def polygons(rng: np.random.Generator, n: int) -> list[np.ndarray]:
     """Convex CCW polygons: robots' octagons at random points, turned polygons of 3 to 8
@@ -198,6 +215,9 @@ def all_cases(seed: int):
         pts, idx = paths(rng, int(rng.integers(1, 9)), width)
         z = rng.uniform(0, 6, len(pts)) + 1j * rng.uniform(0, 6, len(pts))
         yield "way_gaps", plane.way_gaps(points, z, pts, idx), np_way_gaps(points, z, pts, idx)
+        for name, grid in (("free_place", False), ("free_place_grid", True)):
+            got, want = place_cases(rng, grid)
+            yield name, got, want
         for name, grid in (("way_waits", False), ("way_waits_grid", True)):
             pts, idx = paths(rng, len(pts), width, grid)
             last = np.maximum(idx, rng.integers(0, width, len(pts)))
@@ -213,11 +233,27 @@ def all_cases(seed: int):
             yield name, np.concatenate(got, axis=None), np.concatenate(want, axis=None)
 
 
+def place_cases(rng: np.random.Generator, grid: bool):
+    """(name, compiled, numpy) for robots round a site with six slots: some places kept,
+    robots standing on or near others, every place taken now and then."""
+    site = complex(*(rng.integers(2, 8, 2) if grid else rng.uniform(2, 8, 2)))
+    ring = site + 0.8 * np.exp(2j * np.pi * np.arange(6) / 6)
+    places = np.concatenate([[site], ring[rng.random(6) < 0.8]])
+    m = int(rng.integers(1, 40))
+    spread = rng.choice(places, m) + rng.normal(0, 0.4, m) + 1j * rng.normal(0, 0.4, m)
+    z = np.round(spread * 2) / 2 if grid else spread
+    kept = np.where(rng.random(m) < 0.5, rng.choice(places, m), z)
+    keeping, standing = rng.random(m) < 0.3, rng.random(m) < 0.4
+    here = complex(np.round(z[0] * 2) / 2) if grid else complex(z[0])
+    args = (places, site, kept, keeping, z, standing, 1.6, 0.6, here)
+    return plane.free_place(*args), np_free_place(*args)
+
+
 def _flat(answer) -> np.ndarray:
     """An answer (a tuple of numbers or an array) as one complex array."""
     if isinstance(answer, tuple):
         return np.array(answer, dtype=complex)
-    return np.asarray(answer, dtype=complex)
+    return np.asarray(answer, dtype=complex).reshape(-1)
 
 
 def exact_mismatches(seed: int) -> dict[str, list[int]]:
@@ -262,6 +298,8 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "way_gaps": 200,
         "way_waits": 200,
         "way_waits_grid": 200,
+        "free_place": 200,
+        "free_place_grid": 200,
     }
 
 

@@ -204,6 +204,9 @@ def test_single_queries_in_python_equal_the_array_versions(obstacles):
     ours = [planner.blocked_one(*p, *q) for p, q in zip(a.tolist(), b.tolist(), strict=True)]
     assert ours == planner.blocked(a, b).tolist()
     assert [planner.free_one(*p) for p in a.tolist()] == planner.free(a).tolist()
+    for pts in (a, b):  # a few points at a time are tested one by one (FREE_ONE_MAX)
+        few = [planner.free(c) for c in np.array_split(pts, 400)]
+        assert np.concatenate(few).tolist() == planner.free(pts).tolist()
     starts, goals = a[planner.free(a)][:300], b[planner.free(b)][:300]
     n = min(len(starts), len(goals))
     lengths = [path_length(planner.path(s, g)) for s, g in zip(starts[:n], goals[:n], strict=True)]

@@ -492,8 +492,9 @@ class PymunkWorld:
             if self.spatial.look_ahead == "on":
                 self.jobs.jams.look_ahead(t)
             near = self.jobs.jams.standing_near(t)
-            self.jobs.jams.pass_workers(t, near)
-            self.jobs.jams.break_jams(t, near)
+            if near:  # (both do nothing without a robot standing near another)
+                self.jobs.jams.pass_workers(t, near)
+                self.jobs.jams.break_jams(t, near)
         self.stalls.sample(f, holding)
         if self.recorder is not None:
             shown = shown_states(f.state, f.t_progress_s, t)

@@ -30,6 +30,7 @@ import numpy as np
 
 from sim.scenario import FollowSpec
 from sim.spatial.navigation.buckets import EDGE_CELLS_MIN_EDGES, BoxBuckets, EdgeCells, typical_size
+from sim.spatial.navigation.widths import segment_sides
 
 SCALAR_FREE_MAX = 48  # free widths of fewer (segment, obstacle edge) pairs in plain Python
 CELLS_FROM = 2048  # to_obstacle looks up grid cells for more (point, edge) pairs than this
@@ -77,6 +78,9 @@ class PathFollower:
         self.edge1_ = np.concatenate([e[1] for e in edges]) if polys else self.verts_
         self.vert_start_ = np.cumsum([0] + [len(p) for p in polys])[:-1]
         self.edge_start_ = np.cumsum([0] + [len(e[0]) for e in edges])[:-1]
+        self.vert_end_ = np.cumsum([0] + [len(p) for p in polys])[1:]
+        self.edge_end_ = np.cumsum([0] + [len(e[0]) for e in edges])[1:]
+        self.all_owners_ = np.arange(len(polys))
         self.owners_ = [  # the same, per obstacle, as Python lists: vertices and edges
             (p.tolist(), list(zip(e0.tolist(), e1.tolist(), strict=True)))
             for p, (e0, e1) in zip(polys, edges, strict=True)
@@ -484,26 +488,25 @@ class PathFollower:
 
     def _free_one(self, a: complex, b: complex) -> tuple[float, float]:
         """:meth:`_free` of one segment, in plain Python."""
-        left, right = self._sides(a, b, range(self.n_owner_))
+        left, right = self._sides(a, b, None)
         return max(left - self.radius_m, 0.0), max(right - self.radius_m, 0.0)
 
     def _sides(self, a: complex, b: complex, owners) -> tuple[float, float]:
         """Distance from segment a -> b to the nearest of ``owners`` (indices) on its left and
-        on its right (an obstacle straddling the segment's line counts on both)."""
-        length = abs(b - a)
-        unit_c = (b - a).conjugate() / length if length > 1e-12 else 1.0
-        left = right = np.inf
-        for k in owners:
-            verts, edges = self.owners_[k]
-            dist = min(_to_segment(p, a, b) for p in verts)
-            for e0, e1 in edges:
-                dist = min(dist, _to_segment(a, e0, e1), _to_segment(b, e0, e1))
-            side = [((p - a) * unit_c).imag for p in verts]  # > 0: left of the segment
-            if max(side) > -1e-9:
-                left = min(left, dist)
-            if min(side) < 1e-9:
-                right = min(right, dist)
-        return left, right
+        on its right (an obstacle straddling the segment's line counts on both). Compiled
+        (``sim.spatial.navigation.widths``)."""
+        return segment_sides(
+            complex(a),
+            complex(b),
+            self.all_owners_ if owners is None else np.asarray(owners, dtype=np.int64),
+            self.verts_,
+            self.vert_start_,
+            self.vert_end_,
+            self.edge0_,
+            self.edge1_,
+            self.edge_start_,
+            self.edge_end_,
+        )
 
 
 def _nearest(z: np.ndarray, e0: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -515,7 +518,8 @@ def _nearest(z: np.ndarray, e0: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def _to_segment(p: complex, s0: complex, s1: complex) -> float:
-    """Distance from point p to segment s0 -> s1 (complex numbers)."""
+    """Distance from point p to segment s0 -> s1 (complex numbers; plain Python, the
+    reference of ``widths``)."""
     d = s1 - s0
     dd = (d * d.conjugate()).real
     t = ((p - s0) * d.conjugate()).real / dd if dd > 1e-24 else 0.0

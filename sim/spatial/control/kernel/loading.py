@@ -37,7 +37,7 @@ from sim.spatial.control.kernel.views import (
     wishes_for,
 )
 
-COMPILE_S = 30  # 17-29 s measured on a shared two-core machine (numba 0.68.1)
+COMPILE_S = 60  # 30-70 s with the event kernels, on a shared two-core machine (numba 0.68.1)
 STAMP = "control-kernel.digest"  # beside numba's cache: the kernel sources it was compiled from
 ENTRY_POINTS = (kernel.read_only, kernel.run_period)
 KERNEL_DIR = Path(__file__).resolve().parent
@@ -80,30 +80,88 @@ def drop_cache(where: Path) -> None:
             path.unlink(missing_ok=True)
 
 
+def event_kernels() -> tuple:
+    """The compiled functions the world calls between control periods: the planner's
+    visibility test and all-pairs search, a path segment's free widths, the event rules'
+    geometry (``sim.spatial.plane``)."""
+    from sim.spatial import plane
+    from sim.spatial.navigation import geodesics, segments, widths
+
+    return (
+        segments.blocked_segments,
+        geodesics.visibility_geodesics,
+        widths.segment_sides,
+        plane.polygon_gap,
+        plane.clip_line,
+        plane.path_gaps,
+        plane.way_gaps,
+        plane.way_waits,
+        plane.free_place,
+    )
+
+
+def events_cached() -> bool:
+    """True if numba's cache holds an entry for every event kernel (one whose source changed
+    since is compiled again by numba when first called)."""
+    for fn in event_kernels():
+        stats = getattr(fn, "stats", None)
+        if stats is not None and not any(Path(stats.cache_path).glob(f"{_base(fn)}-*.nbi")):
+            return False
+    return True
+
+
 def ensure_compiled(stream=None) -> float:
-    """Make the kernel callable: load it from the cache, or compile it (once per install,
-    saying so in one line on ``stream``, default stderr). Returns the seconds it took; later
-    calls in the process return 0 at once."""
+    """Make the kernel and the event kernels (:func:`event_kernels`) callable: load them from
+    the cache, or compile them (once per install, saying so in one line on ``stream``,
+    default stderr). Returns the seconds it took; later calls in the process return 0 at
+    once."""
     if getattr(kernel.run_period, "signatures", None):  # loaded in this process already
         return 0.0
     t0 = time.perf_counter()
     where, digest = cache_dir(), source_digest()
     cold = where is not None and not is_warm(where, digest)
-    if cold:
-        if where.is_dir():
-            drop_cache(where)
+    if cold and where.is_dir():
+        drop_cache(where)
+    if cold or not events_cached():
         print(
             f"compiling the control kernel (once, about {COMPILE_S} s)",
             file=sys.stderr if stream is None else stream,
             flush=True,
         )
     warm_up()
+    warm_events()
     if cold and where.is_dir():
         (where / STAMP).write_text(digest)
     for fn in ENTRY_POINTS:
         if hasattr(fn, "disable_compile"):
             fn.disable_compile()
     return time.perf_counter() - t0
+
+
+def warm_events() -> None:
+    """One call of each event kernel with the types the world passes it."""
+    from sim.spatial import plane
+    from sim.spatial.navigation import geodesics, segments, widths
+
+    z = np.array([0j, 1 + 0j, 1 + 1j, 1j])
+    one = np.zeros(1, dtype=np.int64)
+    four = np.zeros(4, dtype=np.int64)
+    mask = np.ones(4, dtype=bool)
+    xy = np.array([[0.0, 0.0], [2.0, 0.5]])
+    box = np.array([[0.5, -1.0]]), np.array([[1.5, 1.0]])
+    normals = np.array([[[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]]])
+    segments.blocked_segments(
+        xy[:1], xy[1:], one, *box, normals, np.ones((1, 4)), np.array([4]), 1e-9
+    )
+    geodesics.visibility_geodesics(xy, one, one + 1)
+    widths.segment_sides(0j, 1 + 0j, one, z, one, one + 4, z, z, one, one + 4)
+    plane.polygon_gap(z, z + 3)
+    plane.clip_line(0.5j, 1 + 0j, z)
+    plane.path_gaps(z, z)
+    plane.way_gaps(z, z, np.tile(z, (4, 1)), four)
+    ends = np.zeros(4)
+    plane.way_waits(z[None], one, one, np.zeros((1, 4)), z[:1], z[:1], z, z, ends, 0.0, 1.0, 0.7)
+    plane.free_place(z, 0j, z, mask, z, mask, 1.0, 0.5, 0j)
 
 
 def warm_up() -> None:

@@ -337,3 +337,35 @@ def test_the_kernel_is_compiled_for_one_set_of_types():
         assert len(fn.signatures) == 1
     with pytest.raises(TypeError):
         period.read_only(np.zeros((2, 6), dtype=np.float32), (), ())
+
+
+def test_ensure_compiled_warms_the_event_kernels_with_the_types_runs_pass():
+    """In a fresh process, ``ensure_compiled`` compiles (or loads) every event kernel, and
+    short runs with avoidance in the paper arena and the warehouse (traffic rules, site
+    queues, look-ahead, planning round robots) add no signature: a run compiles nothing more
+    after the one line, and CI's warm cache is complete."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = """
+import json
+from sim.spatial.control.kernel import loading
+from scenarios.experiments.protocol import RunSpec, execute
+loading.ensure_compiled()
+before = {loading._base(f): len(f.signatures) for f in loading.event_kernels()}
+short = (("stream.n_sets", 2), ("stream.learn_sets", 1), ("stream.test_sets", 1))
+for name in ("paper_spatial", "warehouse"):
+    execute(RunSpec(name, "market", "distance", 0, short))
+after = {loading._base(f): len(f.signatures) for f in loading.event_kernels()}
+print(json.dumps([before, after, loading.events_cached()]))
+"""
+    root = Path(__file__).resolve().parents[4]
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=True
+    )
+    before, after, cached = json.loads(out.stdout.strip().splitlines()[-1])
+    assert len(before) == 9 and all(n == 1 for n in before.values()), before
+    assert after == before
+    assert cached

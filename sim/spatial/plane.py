@@ -60,7 +60,7 @@ def _to_segment(p: complex, a: complex, b: complex) -> tuple[float, complex]:
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _strictly_inside(x: complex, poly: np.ndarray) -> bool:
-    """x lies strictly inside the convex CCW polygon (``geometry.inside``)."""
+    """x lies strictly inside the convex CCW polygon (the cross products all above TOL_M)."""
     n = len(poly)
     for e in range(n):
         e0, e1 = poly[e], poly[(e + 1) % n]
@@ -76,7 +76,7 @@ def polygon_gap(pa: np.ndarray, pb: np.ndarray) -> tuple[float, complex, complex
     """Distance between two disjoint convex polygons ((P,) complex, CCW) and the nearest
     points (on ``pa``, on ``pb``); 0 where they touch or overlap (then the points are a vertex
     and its nearest). Ties go to the first vertex and edge in order, ``pa``'s vertices
-    first, as ``geometry.polygon_gap``'s argmin does."""
+    first, as numpy's argmin does (the numpy reference: tests/sim/spatial/test_plane.py)."""
     na, nb = len(pa), len(pb)
     best_ab, p_ab, q_ab = math.inf, 0j, 0j
     for i in range(na):

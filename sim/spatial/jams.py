@@ -141,8 +141,8 @@ class Jams:
         length at top speed takes less than the longest such wait. Without it a robot drives
         up to one at work in a 2 m aisle, where ORCA leaves a band of about 10 cm to pass
         in, and stands there."""
-        if not (self.due.any() or self.began.any()):
-            return
+        if not (np.count_nonzero(self.due) or np.count_nonzero(self.began)):
+            return  # (count_nonzero: quicker than any() on a small array, once a period)
         f, fol, z = self.fleet, self.follower, self.fleet.last_z_m
         drive = (f.state == DRIVING) & ~f.replan & (f.backoff_until_s <= t)
         drive &= ~self.sites.holding & ~self.sites.admitted & (fol.last >= 0)

@@ -37,6 +37,7 @@ _FIRST_BATCH = 8  # vertices tested per query in the first round (then 4x more e
 FIELD_MIN_ROBOTS = 256  # distances for this many positions or more come from the field
 LOCAL_MIN_VERTICES = 256  # path_around in an arena with more vertices plans in a local box ...
 LOCAL_MARGIN_M = 6.0  # ... this much round the start, the goal and the robots, m
+GROWN_MAX = 4096  # grown shapes of path_around's robots a planner keeps (then it starts again)
 
 
 PAIRS_CACHED = 256  # graphs of at most this many vertices share their index pairs (path_around)
@@ -130,6 +131,7 @@ class GridPlanner:
         self.lo_ = np.array([lo, lo])
         self.hi_ = np.array([spatial.width_m - lo, spatial.height_m - lo])
         self.box_ = (*(self.lo_ - _TOL_M).tolist(), *(self.hi_ + _TOL_M).tolist())
+        self.grown_: dict[tuple, tuple] = {}  # :meth:`set_obstacles`' grown shapes of others
         self.set_obstacles(spatial.obstacles)
 
     def set_obstacles(self, obstacles, known: tuple[GridPlanner, int] | None = None) -> None:
@@ -142,13 +144,23 @@ class GridPlanner:
         box that holds every vertex here). Whether two of its vertices see each other is then
         looked up in its visibility graph, and only the obstacles past the n are tested
         (:meth:`_visible`); the graph is the same as without it. The grown shapes of its
-        obstacles are taken from it too (:meth:`_shape`, the same computation)."""
+        obstacles are taken from it too (:meth:`_shape`, the same computation), and those of
+        the others are kept in its ``grown_`` (at most ``GROWN_MAX``) for the next planner
+        given it: :meth:`path_around`'s robots at work stand where they stood."""
         self.obstacles = tuple(
             tuple(map(tuple, np.asarray(p, dtype=float).tolist())) for p in obstacles
         )
         same = known is not None and known[0].inflate_m == self.inflate_m
         had = known[0].shapes_ if same else {}
-        self.shapes_ = {o: had.get(o) or self._shape(o) for o in self.obstacles}
+        grown = known[0].grown_ if same else {}
+        if len(grown) > GROWN_MAX:
+            grown.clear()
+        self.shapes_ = {}
+        for o in self.obstacles:
+            shape = had.get(o) or grown.get(o)
+            if shape is None:
+                shape = grown[o] = self._shape(o)
+            self.shapes_[o] = shape
         shapes = [self.shapes_[o] for o in self.obstacles]
         polys = [shape[0] for shape in shapes]
         self.polygons_ = polys
@@ -562,11 +574,12 @@ class GridPlanner:
         """Waypoints (P, 2) from ``start_xy`` to ``goal_xy``, both included; (0, 2) if no path."""
         start = np.asarray(start_xy, dtype=float).reshape(2)
         goal = np.asarray(goal_xy, dtype=float).reshape(2)
-        if self.free_one(*start.tolist()) and self.free_one(*goal.tolist()):
-            s, g = start, goal  # the usual case: no snapping needed
-        else:
+        snapped = not (self.free_one(*start.tolist()) and self.free_one(*goal.tolist()))
+        if snapped:
             s, g = self.snap(np.stack([start, goal]))
-        pts = [start] if np.linalg.norm(s - start) > 0 else []
+        else:
+            s, g = start, goal  # the usual case: no snapping needed
+        pts = [start] if snapped and np.linalg.norm(s - start) > 0 else []
         pts.append(s)
         sx, sy = s.tolist()
         if self.blocked_one(sx, sy, *g.tolist()):
@@ -588,7 +601,7 @@ class GridPlanner:
                 chain.append(int(self.pred_[u, chain[-1]]))
             pts.extend(self.vertices_[chain[::-1]])
         pts.append(g)
-        if np.linalg.norm(goal - g) > 0:
+        if snapped and np.linalg.norm(goal - g) > 0:
             pts.append(goal)
         return np.array(pts)
 
@@ -600,7 +613,8 @@ class GridPlanner:
         a robot radius plus the clearance. A start inside such a grown robot is pushed out of
         it first. For the rare re-plan of a robot in a deadlock: it builds a planner of its own
         (a new visibility graph, whose pairs of obstacle vertices are looked up in this one's
-        and tested against the robots only), milliseconds, and caches nothing; in an arena of
+        and tested against the robots only), milliseconds, and keeps only the robots' grown
+        octagons (``grown_``: a robot at work is gone round where it stands); in an arena of
         more than ``local_min_vertices`` obstacle vertices only within ``LOCAL_MARGIN_M`` of the
         start, the goal and the robots (a path that would leave that box is not found).
         ``reuse=False`` builds the whole graph afresh (the same graph; ``mrta bench`` times
@@ -633,6 +647,7 @@ class GridPlanner:
         other.spatial, other.inflate_m, other.tol_m = self.spatial, self.inflate_m, self.tol_m
         other.lo_, other.hi_, other.box_ = self.lo_, self.hi_, self.box_
         other.local_min_vertices, other.chunk = self.local_min_vertices, self.chunk
+        other.grown_ = {}
         return other
 
     def side_step(

@@ -321,6 +321,44 @@ def test_path_around_in_a_local_box_builds_the_graph_it_would_from_scratch(monke
         _same_graph(fast, slow)
 
 
+def test_path_around_grows_a_robot_once_while_it_stands_and_plans_as_a_fresh_planner(
+    monkeypatch,
+):
+    """path_around keeps the grown octagons of the robots it went round (robots at work stand
+    where they stood): going round the same robots again grows none of them, moving one grows
+    that one only, and every path equals a fresh planner's; past ``GROWN_MAX`` shapes the
+    planner starts again, so what it keeps stays bounded."""
+    import sim.spatial.navigation.planning as planning
+
+    pl = GridPlanner(spatial(obstacles=(BOX, TRIANGLE)))
+    grown = []
+    shape = GridPlanner._shape
+
+    def counted(self, obstacle):
+        grown.append(obstacle)
+        return shape(self, obstacle)
+
+    monkeypatch.setattr(GridPlanner, "_shape", counted)
+    robots = np.array([6.0 + 10.0j, 13.0 + 13.0j, 10.0 + 14.5j])
+    moved = robots + np.array([0.0, 0.01, 0.0])
+    calls = [((2.0, 10.0), robots), ((3.0, 3.0), robots), ((2.0, 17.0), robots)]
+    calls.append(((2.0, 10.0), moved))
+    paths = []
+    for start, them in calls:
+        before = len(grown)
+        paths.append(pl.path_around(start, (18.0, 10.0), them, 0.25))
+        assert len(grown) - before == (3 if not paths[:-1] else int(them is moved))
+    fresh = GridPlanner(spatial(obstacles=(BOX, TRIANGLE)))
+    for (start, them), path in zip(calls, paths, strict=True):
+        fresh.grown_.clear()
+        np.testing.assert_array_equal(path, fresh.path_around(start, (18.0, 10.0), them, 0.25))
+    assert any(len(p) > 2 for p in paths)  # some go round a robot
+    monkeypatch.setattr(planning, "GROWN_MAX", 4)
+    for k in range(6):
+        pl.path_around((2.0, 10.0), (18.0, 10.0), robots + 0.1 * (k + 1), 0.25)
+        assert len(pl.grown_) <= 4 + 3
+
+
 def open_planner(*obstacles) -> GridPlanner:
     """A 20 x 20 m arena; obstacles grow by 0.35 m (radius 0.25 m and clearance 0.1 m)."""
     return GridPlanner(spatial(obstacles=obstacles))

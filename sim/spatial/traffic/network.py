@@ -148,12 +148,15 @@ class PassageMap:
         # w's body nor the first one within passage_m on either side of it (bodies are
         # disc_polygon's octagons, corners r / cos(pi / 8) out): it cannot change w's passage
         counts_m = self.passage_m + 2.0 * r / np.cos(np.pi / 8) + 1e-9
-        for w in near.nonzero()[0].tolist():
+        near = near.nonzero()[0]
+        within = np.abs(z[near][:, None] - z[None, :]) < min(reach, counts_m)
+        boxes = self._boxes_near(z[near])
+        for w, close, box in zip(near.tolist(), within, boxes, strict=True):
             key = self.n_static + w
             was = self.passages.pop(key, None)
-            others = z[work & (np.abs(z - z[w]) < min(reach, counts_m))]
+            others = z[work & close]
             others = others[np.abs(others - z[w]) > 1e-9]
-            shapes = self._shapes_near(z[w])
+            shapes = [self.shapes[k] for k in np.flatnonzero(box).tolist()]
             p = worker_passage(w, complex(z[w]), r, shapes, others, self.passage_m, self.lane_m)
             if p is not None and len(others):
                 alone = worker_passage(w, complex(z[w]), r, shapes, others[:0], self.passage_m, 0)
@@ -167,13 +170,15 @@ class PassageMap:
                 touched.append(w)
         return dropped, made, np.array(touched, dtype=int)
 
-    def _shapes_near(self, z: complex) -> list[np.ndarray]:
-        """The obstacles and walls within two lanes and a radius of point z."""
+    def _boxes_near(self, z: np.ndarray) -> np.ndarray:
+        """(len(z), shapes) whether each obstacle and wall lies within two lanes and a radius
+        of each point of z (by its bounding box)."""
         d = self.passage_m + self.radius_m
         b = self.boxes
-        keep = (b[:, 0] <= z.real + d) & (b[:, 2] >= z.real - d)
-        keep &= (b[:, 1] <= z.imag + d) & (b[:, 3] >= z.imag - d)
-        return [self.shapes[k] for k in np.flatnonzero(keep).tolist()]
+        x, y = z.real[:, None], z.imag[:, None]
+        keep = (b[:, 0] <= x + d) & (b[:, 2] >= x - d)
+        keep &= (b[:, 1] <= y + d) & (b[:, 3] >= y - d)
+        return keep
 
     # -- holding --------------------------------------------------------------------------
     def open_spot(self, spot: complex, to_left: complex, key: int, direction: int) -> bool:

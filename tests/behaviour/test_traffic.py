@@ -248,12 +248,30 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     """A control period in which nothing the rules follow changed returns at once
     (``Traffic._still``, on the states as bytes; else ``Traffic._quiet``); the same runs with
     every period taken in full are bit-identical, and whenever the quick test says still, the
-    full one says quiet."""
+    full one says quiet. The robots the rules follow are those with a chain ahead, a lock, a
+    request or a hold, found from the robots given chains (``Traffic.chained``) as from all."""
     from sim.spatial.traffic.rules import Traffic
 
-    still, agreed = Traffic._still, []
+    still, active, agreed, chained = Traffic._still, Traffic._active, [], []
+
+    def slowly(self) -> np.ndarray:
+        out = self.held.copy()
+        out[[j for j, c in enumerate(self.chains) if c]] = True
+        for occ in self.locks.occupants.values():
+            out[list(occ)] = True
+        out[list(self.locks.requests)] = True
+        return out
+
+    def active_checked(self) -> np.ndarray:
+        out = active(self)
+        assert np.array_equal(out, slowly(self))
+        chained.append(any(self.chains))
+        return out
 
     def checked(self) -> bool:
+        locks = self.locks
+        none = not (locks.occupants or locks.requests or self.held.any() or any(self.chains))
+        assert self._follow_none() == none
         out = still(self)
         if out:
             work = self.fleet.state == WORKING
@@ -277,6 +295,7 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
 
     with monkeypatch.context() as m:
         m.setattr(Traffic, "_still", checked)
+        m.setattr(Traffic, "_active", active_checked)
         quick, quick_summary = trace()
     with monkeypatch.context() as m:
         m.setattr(Traffic, "_still", lambda self: False)
@@ -287,6 +306,7 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     assert quick_summary["traffic_grants"] >= 2
     assert len(agreed) >= 10  # the quick test was taken, with robots driving and at work
     assert any((s == DRIVING).any() for s in agreed) and any((s == WORKING).any() for s in agreed)
+    assert any(chained) and not all(chained)
 
 
 def test_a_robot_kept_out_at_the_mouth_holds_off_the_lane_round_it():

@@ -94,6 +94,7 @@ class Traffic:
         self.aside = np.zeros(m, dtype=bool)  # holding at a point that leaves a robot room
         self.blockers: dict[int, list[int]] = {}  # robots standing in each one's way, last look
         self.chains: list[list[Chain]] = [[] for _ in range(m)]
+        self.chained: set[int] = set()  # every robot with a chain ahead (and some without)
         self.granted: list[Chain | None] = [None] * m  # the chain each robot may go through
         self.gave_up: list[frozenset[int]] = [frozenset()] * m
         self.sig = np.zeros((4, m), dtype=complex)  # the path each robot was annotated on
@@ -173,13 +174,15 @@ class Traffic:
     def _follow_none(self) -> bool:
         """True if the rules follow no robot: no lock, request, hold or chain ahead."""
         locks = self.locks
-        held = np.count_nonzero(self.held)  # (quicker than held.any() on a small array)
-        return not (locks.occupants or locks.requests or held or any(self.chains))
+        if locks.occupants or locks.requests or np.count_nonzero(self.held):  # (not .any():
+            return False  # count_nonzero is quicker on a small array)
+        return not any(self.chains[j] for j in self.chained)
 
     def _active(self) -> np.ndarray:
         """(m,) robots the rules follow: with a chain ahead, a lock, a request or holding."""
         out = self.held.copy()
-        out[[j for j, c in enumerate(self.chains) if c]] = True
+        self.chained = {j for j in self.chained if self.chains[j]}
+        out[list(self.chained)] = True
         for occ in self.locks.occupants.values():
             out[list(occ)] = True
         out[list(self.locks.requests)] = True
@@ -304,6 +307,8 @@ class Traffic:
             return self.map.room_between(pts, a, b)
 
         ahead = self.chains[j] = chains(pts, found, self.spec.chain_m, clear, roomy)
+        if ahead:
+            self.chained.add(j)
         mine = ahead and ahead[0].keys <= self.locks.held_by(j)
         self.granted[j] = ahead[0] if mine else None
 

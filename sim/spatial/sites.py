@@ -26,6 +26,10 @@ from sim.spatial.navigation.planning import GridPlanner
 from sim.spatial.plane import free_place
 from sim.states import DRIVING, IDLE, WORKING
 
+_TURNS = np.radians(np.arange(-150, 151, 30))  # a robot leaving a site: the ways out it tries,
+TURNED = np.exp(1j * _TURNS)  # turned from straight away by these (Sites.leave)
+TURNS_ABS = np.abs(_TURNS)
+
 
 class Sites:
     """The service places and queues of the task sites, for a fleet of robots.
@@ -287,8 +291,9 @@ class Sites:
         sites = np.unique(self.service[coming])
         near = np.abs(z[:, None] - sites[None, :]) < self.rules.queue_m
         moved = False
-        for j, k in zip(*near.nonzero(), strict=True):
-            j = int(idle.nonzero()[0][j])
+        rows = idle.nonzero()[0].tolist()
+        for i, k in zip(*near.nonzero(), strict=True):
+            j = rows[i]
             if not f.yielding[j]:
                 moved |= self.leave(j, t, complex(sites[k]))
         if moved:
@@ -316,8 +321,7 @@ class Sites:
         if abs(away) < 1e-3:
             away = -np.exp(1j * self.bodies[j].angle)
         away /= abs(away)
-        turns = np.radians(np.arange(-150, 151, 30))
-        ends = site + (self.rules.queue_m + self.rules.exit_m) * away * np.exp(1j * turns)
+        ends = site + (self.rules.queue_m + self.rules.exit_m) * away * TURNED
         ok = self.planner.free(np.column_stack([ends.real, ends.imag]))
         # the straight way out that passes farthest from the robots around (ties: least turned)
         around = np.abs(f.last_z_m - z) < self.rules.queue_m + self.rules.exit_m
@@ -325,7 +329,7 @@ class Sites:
         clear = self.clearance(z, ends, f.last_z_m[around])
         # ... and never straight at a robot driving in (let in, not holding): both would stop
         ok &= self.clearance(z, ends, f.last_z_m[around & coming & self.admitted]) >= self.reach_m
-        order = np.lexsort((np.abs(turns), -np.minimum(clear, 2.0 * self.reach_m)))
+        order = np.lexsort((TURNS_ABS, -np.minimum(clear, 2.0 * self.reach_m)))
         for k in order[ok[order]].tolist():
             path = self.planner.path((z.real, z.imag), (ends[k].real, ends[k].imag))
             if len(path):

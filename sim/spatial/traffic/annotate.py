@@ -121,6 +121,8 @@ def chains(
     enters less than ``chain_m`` after the chain so far leaves joins it, unless
     ``roomy(last, crossing)`` says a robot can hold between the two. Each chain's zone runs
     from its entry to ``clear_m`` beyond its exit (or the path's end)."""
+    if not found:
+        return []  # (most ways cross no passage)
     groups: list[list[Crossing]] = []
     for c in found:
         close = groups and min(g.exit_left_m for g in groups[-1]) - c.entry_left_m < chain_m

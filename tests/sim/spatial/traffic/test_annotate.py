@@ -68,6 +68,7 @@ def test_gaps_closer_than_chain_m_are_one_chain(chain_m, n_chains):
         )
     else:
         assert [c.passages for c in out] == [((0, 1),), ((1, 1),)]
+    assert chains(pts, [], chain_m, 0.45) == []  # a way that crosses no passage
 
 
 def test_hold_points_lie_before_the_mouth_on_the_way_moved_right_first():

@@ -30,6 +30,7 @@ LANE_OUT_M = 2.0  # a holding point keeps a pass off this much of the lane out o
 HOLD_STEP_M = 0.25  # holding points are looked for every this much farther back, m
 NEAR_RINGS = (1.0, 1.5, 2.0, 3.0)  # spot_near's rings round the robot, in passes
 NEAR_POINTS = 16  # points on each ring
+BLOCK = 256  # update_workers remakes the passages of this many robots at work at a time
 
 
 class PassageMap:
@@ -148,26 +149,29 @@ class PassageMap:
         # w's body nor the first one within passage_m on either side of it (bodies are
         # disc_polygon's octagons, corners r / cos(pi / 8) out): it cannot change w's passage
         counts_m = self.passage_m + 2.0 * r / np.cos(np.pi / 8) + 1e-9
-        near = near.nonzero()[0]
-        within = np.abs(z[near][:, None] - z[None, :]) < min(reach, counts_m)
-        boxes = self._boxes_near(z[near])
-        for w, close, box in zip(near.tolist(), within, boxes, strict=True):
-            key = self.n_static + w
-            was = self.passages.pop(key, None)
-            others = z[work & close]
-            others = others[np.abs(others - z[w]) > 1e-9]
-            shapes = [self.shapes[k] for k in np.flatnonzero(box).tolist()]
-            p = worker_passage(w, complex(z[w]), r, shapes, others, self.passage_m, self.lane_m)
-            if p is not None and len(others):
-                alone = worker_passage(w, complex(z[w]), r, shapes, others[:0], self.passage_m, 0)
-                p = dataclasses.replace(p, by_walls=alone is not None)
-            if p is not None:
-                self.passages[key] = p
-                made += was is None
-            elif was is not None:
-                dropped.append(key)
-            if p != was and w not in touched:
-                touched.append(w)
+        near, at_work = near.nonzero()[0], z[work]
+        for start in range(0, len(near), BLOCK):  # in blocks: the temporaries stay small
+            block = near[start : start + BLOCK]
+            within = np.abs(z[block][:, None] - at_work[None, :]) < min(reach, counts_m)
+            boxes = self._boxes_near(z[block])
+            for w, close, box in zip(block.tolist(), within, boxes, strict=True):
+                key = self.n_static + w
+                was = self.passages.pop(key, None)
+                others = at_work[close]
+                others = others[np.abs(others - z[w]) > 1e-9]
+                shapes = [self.shapes[k] for k in np.flatnonzero(box).tolist()]
+                zw, lane = complex(z[w]), self.lane_m
+                p = worker_passage(w, zw, r, shapes, others, self.passage_m, lane)
+                if p is not None and len(others):
+                    alone = worker_passage(w, zw, r, shapes, others[:0], self.passage_m, 0)
+                    p = dataclasses.replace(p, by_walls=alone is not None)
+                if p is not None:
+                    self.passages[key] = p
+                    made += was is None
+                elif was is not None:
+                    dropped.append(key)
+                if p != was and w not in touched:
+                    touched.append(w)
         return dropped, made, np.array(touched, dtype=int)
 
     def _boxes_near(self, z: np.ndarray) -> np.ndarray:

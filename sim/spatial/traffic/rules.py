@@ -173,9 +173,9 @@ class Traffic:
 
     def _follow_none(self) -> bool:
         """True if the rules follow no robot: no lock, request, hold or chain ahead."""
-        locks = self.locks
-        if locks.occupants or locks.requests or np.count_nonzero(self.held):  # (not .any():
-            return False  # count_nonzero is quicker on a small array)
+        locks = self.locks  # (np.count_nonzero: quicker than ndarray.any on a small array)
+        if locks.occupants or locks.requests or np.count_nonzero(self.held):
+            return False
         return not any(self.chains[j] for j in self.chained)
 
     def _active(self) -> np.ndarray:

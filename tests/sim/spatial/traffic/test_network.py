@@ -7,9 +7,11 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from scenarios.loader import load_scenario
 from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.traffic import network
 from sim.spatial.traffic.annotate import crossings
 from sim.spatial.traffic.network import PassageMap
 from sim.spatial.traffic.passages import worker_passage
@@ -66,11 +68,13 @@ def test_ways_get_the_same_passages_with_the_box_first_as_robots_begin_and_end_w
     assert seen_temporary > 20 and compared == 360 and found > 50
 
 
-def test_temporary_passages_kept_up_to_date_equal_those_made_afresh():
+@pytest.mark.parametrize("block", [3, network.BLOCK])
+def test_temporary_passages_kept_up_to_date_equal_those_made_afresh(block, monkeypatch):
     """After every round of robots beginning and ending work, the temporary passages
-    ``update_workers`` keeps (only the robots near those that changed are made again, in one
-    batch) equal those made for every robot at work from scratch, one by one: a passage of
-    its own body against the obstacles near it and the robots at work beside it."""
+    ``update_workers`` keeps (only the robots near those that changed are made again, in
+    blocks of ``BLOCK``) equal those made for every robot at work from scratch, one by one: a
+    passage of its own body against the obstacles near it and the robots at work beside it."""
+    monkeypatch.setattr(network, "BLOCK", block)
     spatial = load_scenario("warehouse").spatial
     planner = GridPlanner(spatial)
     pmap = PassageMap(spatial, spatial.drive.radius_m, planner)

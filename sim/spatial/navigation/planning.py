@@ -115,6 +115,8 @@ class GridPlanner:
             this plans in a local box (the same path, quicker in a large arena).
         chunk: (pair, edge) entries per vectorised visibility chunk (bounds the temporaries;
             the result does not depend on it).
+        grown_max: grown shapes of :meth:`path_around`'s robots kept (``grown_``; past it the
+            planner starts again; the result does not depend on it).
     """
 
     def __init__(
@@ -122,9 +124,10 @@ class GridPlanner:
         spatial: SpatialSpec,
         local_min_vertices: int = LOCAL_MIN_VERTICES,
         chunk: int = CHUNK,
+        grown_max: int = GROWN_MAX,
     ) -> None:
         self.spatial = spatial
-        self.local_min_vertices, self.chunk = local_min_vertices, chunk
+        self.local_min_vertices, self.chunk, self.grown_max = local_min_vertices, chunk, grown_max
         self.inflate_m = spatial.drive.radius_m + spatial.clearance_m
         self.tol_m = _TOL_M
         lo = self.inflate_m
@@ -145,7 +148,7 @@ class GridPlanner:
         looked up in its visibility graph, and only the obstacles past the n are tested
         (:meth:`_visible`); the graph is the same as without it. The grown shapes of its
         obstacles are taken from it too (:meth:`_shape`, the same computation), and those of
-        the others are kept in its ``grown_`` (at most ``GROWN_MAX``) for the next planner
+        the others are kept in its ``grown_`` (at most its ``grown_max``) for the next planner
         given it: :meth:`path_around`'s robots at work stand where they stood."""
         self.obstacles = tuple(
             tuple(map(tuple, np.asarray(p, dtype=float).tolist())) for p in obstacles
@@ -153,7 +156,7 @@ class GridPlanner:
         same = known is not None and known[0].inflate_m == self.inflate_m
         had = known[0].shapes_ if same else {}
         grown = known[0].grown_ if same else {}
-        if len(grown) > GROWN_MAX:
+        if same and len(grown) > known[0].grown_max:
             grown.clear()
         self.shapes_ = {}
         for o in self.obstacles:
@@ -647,7 +650,7 @@ class GridPlanner:
         other.spatial, other.inflate_m, other.tol_m = self.spatial, self.inflate_m, self.tol_m
         other.lo_, other.hi_, other.box_ = self.lo_, self.hi_, self.box_
         other.local_min_vertices, other.chunk = self.local_min_vertices, self.chunk
-        other.grown_ = {}
+        other.grown_, other.grown_max = {}, self.grown_max
         return other
 
     def side_step(

@@ -128,11 +128,14 @@ class PassageMap:
         keep &= (lo.imag - reach <= cy) & (cy <= hi.imag + reach)
         return [items[k] for k in keep.nonzero()[0].tolist()]
 
-    def update_workers(self, changed: np.ndarray, work: np.ndarray, z: np.ndarray) -> tuple:
+    def update_workers(
+        self, changed: np.ndarray, work: np.ndarray, z: np.ndarray, block: int = BLOCK
+    ) -> tuple:
         """Robots ``changed`` began or ended work (``work``: who works now, at ``z``): their
         temporary passages, and those of the robots at work near them (their room depends on
-        each other), are made again. Returns the keys dropped, the number of new passages and
-        the robots whose passage came, went or changed."""
+        each other), are made again, ``block`` robots at a time (the result does not depend
+        on it). Returns the keys dropped, the number of new passages and the robots whose
+        passage came, went or changed."""
         r = self.radius_m
         self.version_ += 1  # the passages may change: _near_box's table is built again
         dropped, touched = [], []
@@ -150,11 +153,11 @@ class PassageMap:
         # disc_polygon's octagons, corners r / cos(pi / 8) out): it cannot change w's passage
         counts_m = self.passage_m + 2.0 * r / np.cos(np.pi / 8) + 1e-9
         near, at_work = near.nonzero()[0], z[work]
-        for start in range(0, len(near), BLOCK):  # in blocks: the temporaries stay small
-            block = near[start : start + BLOCK]
-            within = np.abs(z[block][:, None] - at_work[None, :]) < min(reach, counts_m)
-            boxes = self._boxes_near(z[block])
-            for w, close, box in zip(block.tolist(), within, boxes, strict=True):
+        for start in range(0, len(near), block):  # in blocks: the temporaries stay small
+            rows = near[start : start + block]
+            within = np.abs(z[rows][:, None] - at_work[None, :]) < min(reach, counts_m)
+            boxes = self._boxes_near(z[rows])
+            for w, close, box in zip(rows.tolist(), within, boxes, strict=True):
                 key = self.n_static + w
                 was = self.passages.pop(key, None)
                 others = at_work[close]

@@ -326,10 +326,8 @@ def test_path_around_grows_a_robot_once_while_it_stands_and_plans_as_a_fresh_pla
 ):
     """path_around keeps the grown octagons of the robots it went round (robots at work stand
     where they stood): going round the same robots again grows none of them, moving one grows
-    that one only, and every path equals a fresh planner's; past ``GROWN_MAX`` shapes the
+    that one only, and every path equals a fresh planner's; past ``grown_max`` shapes the
     planner starts again, so what it keeps stays bounded."""
-    import sim.spatial.navigation.planning as planning
-
     pl = GridPlanner(spatial(obstacles=(BOX, TRIANGLE)))
     grown = []
     shape = GridPlanner._shape
@@ -353,10 +351,10 @@ def test_path_around_grows_a_robot_once_while_it_stands_and_plans_as_a_fresh_pla
         fresh.grown_.clear()
         np.testing.assert_array_equal(path, fresh.path_around(start, (18.0, 10.0), them, 0.25))
     assert any(len(p) > 2 for p in paths)  # some go round a robot
-    monkeypatch.setattr(planning, "GROWN_MAX", 4)
+    small = GridPlanner(spatial(obstacles=(BOX, TRIANGLE)), grown_max=4)
     for k in range(6):
-        pl.path_around((2.0, 10.0), (18.0, 10.0), robots + 0.1 * (k + 1), 0.25)
-        assert len(pl.grown_) <= 4 + 3
+        small.path_around((2.0, 10.0), (18.0, 10.0), robots + 0.1 * (k + 1), 0.25)
+        assert len(small.grown_) <= 4 + 3
 
 
 def open_planner(*obstacles) -> GridPlanner:

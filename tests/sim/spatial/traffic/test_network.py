@@ -11,9 +11,8 @@ import pytest
 
 from scenarios.loader import load_scenario
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.traffic import network
 from sim.spatial.traffic.annotate import crossings
-from sim.spatial.traffic.network import PassageMap
+from sim.spatial.traffic.network import BLOCK, PassageMap
 from sim.spatial.traffic.passages import worker_passage
 
 
@@ -68,13 +67,12 @@ def test_ways_get_the_same_passages_with_the_box_first_as_robots_begin_and_end_w
     assert seen_temporary > 20 and compared == 360 and found > 50
 
 
-@pytest.mark.parametrize("block", [3, network.BLOCK])
-def test_temporary_passages_kept_up_to_date_equal_those_made_afresh(block, monkeypatch):
+@pytest.mark.parametrize("block", [3, BLOCK])
+def test_temporary_passages_kept_up_to_date_equal_those_made_afresh(block):
     """After every round of robots beginning and ending work, the temporary passages
     ``update_workers`` keeps (only the robots near those that changed are made again, in
     blocks of ``BLOCK``) equal those made for every robot at work from scratch, one by one: a
     passage of its own body against the obstacles near it and the robots at work beside it."""
-    monkeypatch.setattr(network, "BLOCK", block)
     spatial = load_scenario("warehouse").spatial
     planner = GridPlanner(spatial)
     pmap = PassageMap(spatial, spatial.drive.radius_m, planner)
@@ -95,7 +93,7 @@ def test_temporary_passages_kept_up_to_date_equal_those_made_afresh(block, monke
         begin = changed[~work[changed]]  # these come to a new place; the others end there
         z[begin] = free[rng.integers(0, len(free), len(begin))]
         work[changed] = ~work[changed]
-        pmap.update_workers(changed, work, z)
+        pmap.update_workers(changed, work, z, block)
         afresh = {}
         for k in work.nonzero()[0].tolist():
             d = pmap.passage_m + r

@@ -249,10 +249,13 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     (``Traffic._still``, on the states as bytes; else ``Traffic._quiet``); the same runs with
     every period taken in full are bit-identical, and whenever the quick test says still, the
     full one says quiet. The robots the rules follow are those with a chain ahead, a lock, a
-    request or a hold, found from the robots given chains (``Traffic.chained``) as from all."""
+    request or a hold, found from the robots given chains (``Traffic.chained``) as from all;
+    those with a new path, found among the robots given one since (``PathFollower.sets_``), as
+    from the whole fleet's signatures."""
     from sim.spatial.traffic.rules import Traffic
 
     still, active, agreed, chained = Traffic._still, Traffic._active, [], []
+    new_paths, renewed = Traffic._new_paths, []
 
     def slowly(self) -> np.ndarray:
         out = self.held.copy()
@@ -262,10 +265,21 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
         out[list(self.locks.requests)] = True
         return out
 
-    def active_checked(self) -> np.ndarray:
+    def active_checked(self) -> list[int]:
         out = active(self)
-        assert np.array_equal(out, slowly(self))
+        assert out == slowly(self).nonzero()[0].tolist()
         chained.append(any(self.chains))
+        return out
+
+    def new_paths_checked(self) -> list[int]:
+        fol = self.follower
+        end = fol.points[np.arange(len(fol.last)), np.maximum(fol.last, 0)]
+        sig = np.stack([fol.points[:, 0], end, fol.last.astype(complex), fol.after_m[:, 0]])
+        looked = int((fol.sets_ != self.sig_sets).sum())
+        out = new_paths(self)
+        assert out == (sig != self.sig).any(axis=0).nonzero()[0].tolist()
+        assert np.array_equal(self.sig_sets, fol.sets_)
+        renewed.append(looked)
         return out
 
     def checked(self) -> bool:
@@ -296,6 +310,7 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     with monkeypatch.context() as m:
         m.setattr(Traffic, "_still", checked)
         m.setattr(Traffic, "_active", active_checked)
+        m.setattr(Traffic, "_new_paths", new_paths_checked)
         quick, quick_summary = trace()
     with monkeypatch.context() as m:
         m.setattr(Traffic, "_still", lambda self: False)
@@ -307,6 +322,7 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     assert len(agreed) >= 10  # the quick test was taken, with robots driving and at work
     assert any((s == DRIVING).any() for s in agreed) and any((s == WORKING).any() for s in agreed)
     assert any(chained) and not all(chained)
+    assert any(renewed) and not all(renewed)  # robots looked at again, and periods with none
 
 
 def test_a_robot_kept_out_at_the_mouth_holds_off_the_lane_round_it():

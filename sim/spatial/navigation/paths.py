@@ -116,6 +116,7 @@ class PathFollower:
         self.capped_ = np.zeros((2, m), dtype=bool)  # left, right width of it only >= cap_m
         self.version_ = 0  # counts changes of the current-segment arrays (caches compare it)
         self.paths_set_ = 0  # counts paths given and cleared (the traffic rules compare it)
+        self.sets_ = np.zeros(m, dtype=np.int64)  # ... of each robot
         self.lists_version_, self.lists_ = -1, []
 
     def set_paths(self, rows: list[int], paths: list[np.ndarray]) -> list[float]:
@@ -156,6 +157,7 @@ class PathFollower:
         ``capped``: which of them are only known to be >= ``cap_m`` (:meth:`_free_capped`)."""
         n = len(path)
         self.paths_set_ += 1
+        self.sets_[j] += 1
         if n > self.points.shape[1]:
             grow = ((0, 0), (0, n - self.points.shape[1]))
             self.points = np.pad(self.points, grow, mode="edge")
@@ -253,6 +255,7 @@ class PathFollower:
         """Robot j has no path (it stands)."""
         self.version_ += 1
         self.paths_set_ += 1
+        self.sets_[j] += 1
         self.last[j] = -1
         self.index[j] = 0
         self.switch_[j], self.beyond_[j] = -1.0, -np.inf

@@ -99,6 +99,8 @@ class Traffic:
         self.gave_up: list[frozenset[int]] = [frozenset()] * m
         self.sig = np.zeros((4, m), dtype=complex)  # the path each robot was annotated on
         self.sig[3] = np.nan
+        self.sig_sets = np.full(m, -1)  # the follower's sets_ of each when last compared
+        self.renewed = np.zeros(m, dtype=bool)  # its path differs from sig, at that look
         self.working = np.zeros(m, dtype=bool)
         self.driving = np.zeros(m, dtype=bool)  # who drove at the last full period
         self.paths_seen = -1  # the follower's paths_set_ when the last period began
@@ -131,16 +133,17 @@ class Traffic:
             began = changed[work[changed]] if on else changed[:0]
             spots = ((f.last_z_m[near], self.map.reach_m), (f.last_z_m[began], self.map.pass_m))
             touched = self._touched(drive, spots, set(dropped))
-        for j in (~drive & self._active()).nonzero()[0].tolist():
+        for j in [j for j in self._active() if not drive[j]]:
             self._drop(j, t)
-        sig = self._signature()
-        changed = drive & ((sig != self.sig).any(axis=0) | touched)
+        changed = touched
+        changed[self._new_paths()] = True
+        changed &= drive
         for j in changed.nonzero()[0].tolist():
             if self.held[j] and not moved:
                 self._unhold(j, t, replan=False)  # another rule gave it a path
             if not self.held[j]:
                 self.annotate(j, t)
-        for j in (drive & ~self.held & self._active()).nonzero()[0].tolist():
+        for j in [j for j in self._active() if drive[j] and not self.held[j]]:
             self._step(j, t)
         for j in self.locks.grant(t, self._ready):
             self.granted[j] = self.chains[j][0]
@@ -178,15 +181,15 @@ class Traffic:
             return False
         return not any(self.chains[j] for j in self.chained)
 
-    def _active(self) -> np.ndarray:
-        """(m,) robots the rules follow: with a chain ahead, a lock, a request or holding."""
-        out = self.held.copy()
+    def _active(self) -> list[int]:
+        """The robots the rules follow, in order: with a chain ahead, a lock, a request or
+        holding (a few: found as a set, not as a mask of the fleet)."""
         self.chained = {j for j in self.chained if self.chains[j]}
-        out[list(self.chained)] = True
+        out = self.chained | set(self.locks.requests)
+        out.update(self.held.nonzero()[0].tolist())
         for occ in self.locks.occupants.values():
-            out[list(occ)] = True
-        out[list(self.locks.requests)] = True
-        return out
+            out.update(occ)
+        return sorted(out)
 
     def _touched(self, drive: np.ndarray, spots, dropped: set[int]) -> np.ndarray:
         """(m,) driving robots whose annotation may change after robots began or ended work:
@@ -216,12 +219,20 @@ class Traffic:
         points = np.ascontiguousarray(points, dtype=complex)
         return way_gaps(points, self.fleet.last_z_m[rows], fol.points[rows], fol.index[rows])
 
-    def _signature(self) -> np.ndarray:
-        """(4, m) what identifies each robot's path: first and last point, last index, length."""
+    def _new_paths(self) -> list[int]:
+        """The robots whose path is not the one they were last annotated on (first and last
+        point, last index or length differ from ``sig``), in order. Compared again only for
+        the robots given a path or cleared since the last look (the follower's ``sets_``
+        against ``sig_sets``); the others keep their answer (``renewed``)."""
         fol = self.follower
-        rows = np.arange(len(fol.last))
-        end = fol.points[rows, np.maximum(fol.last, 0)]
-        return np.stack([fol.points[:, 0], end, fol.last.astype(complex), fol.after_m[:, 0]])
+        rows = (fol.sets_ != self.sig_sets).nonzero()[0]
+        if len(rows):
+            last = fol.last[rows]
+            end = fol.points[rows, np.maximum(last, 0)]
+            sig = np.stack([fol.points[rows, 0], end, last.astype(complex), fol.after_m[rows, 0]])
+            self.renewed[rows] = (sig != self.sig[:, rows]).any(axis=0)
+            self.sig_sets[rows] = fol.sets_[rows]
+        return self.renewed.nonzero()[0].tolist()
 
     def _step(self, j: int, t: float) -> None:
         """Robot j (driving, not holding): drop the chains it has passed and free the
@@ -371,6 +382,7 @@ class Traffic:
         fol = self.follower
         last = int(fol.last[j])
         self.sig[:, j] = [fol.points[j, 0], fol.points[j, max(last, 0)], last, fol.after_m[j, 0]]
+        self.sig_sets[j], self.renewed[j] = fol.sets_[j], False
 
     # -- holding --------------------------------------------------------------------------
     def _hold(self, j: int, t: float) -> None:

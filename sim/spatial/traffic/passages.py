@@ -223,10 +223,10 @@ def worker_passage(
     other robot at work (``others``, their centres). The passage is the rectangle across the
     aisle through the robot, four radii long (a robot whose centre is in it is beside the one
     at work); ``passable`` if either side leaves ``lane`` (:func:`lane_m`)."""
-    body = disc_polygon(z, radius_m)
     shapes = list(obstacles) + [disc_polygon(o, radius_m) for o in np.asarray(others).tolist()]
     if not shapes:
         return None
+    body = disc_polygon(z, radius_m)
     gaps = [polygon_gap(body, s) for s in shapes]
     k = int(np.argmin([g[0] for g in gaps]))
     if not gaps[k][0] < passage_m:

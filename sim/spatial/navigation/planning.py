@@ -57,6 +57,15 @@ def _small_pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
     return i, j
 
 
+def _is_points(poly) -> bool:
+    """True if ``poly`` is a tuple of (x, y) tuples of floats already, as
+    :meth:`GridPlanner.set_obstacles` keeps its obstacles (it need not be converted again)."""
+    return type(poly) is tuple and all(
+        type(p) is tuple and len(p) == 2 and type(p[0]) is float and type(p[1]) is float
+        for p in poly
+    )
+
+
 def halfplanes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outward unit normals (E, 2) and offsets (E,) of a convex CCW polygon: inside is n.x < c."""
     edge = np.concatenate((poly[1:], poly[:1])) - poly  # np.roll(poly, -1, axis=0), quicker
@@ -151,7 +160,8 @@ class GridPlanner:
         the others are kept in its ``grown_`` (at most its ``grown_max``) for the next planner
         given it: :meth:`path_around`'s robots at work stand where they stood."""
         self.obstacles = tuple(
-            tuple(map(tuple, np.asarray(p, dtype=float).tolist())) for p in obstacles
+            p if _is_points(p) else tuple(map(tuple, np.asarray(p, dtype=float).tolist()))
+            for p in obstacles
         )
         same = known is not None and known[0].inflate_m == self.inflate_m
         had = known[0].shapes_ if same else {}
@@ -627,7 +637,7 @@ class GridPlanner:
             return self.path(start_xy, goal_xy)
         corner = radius_m / np.cos(np.pi / 8) * np.exp(1j * (np.pi / 8 + np.pi / 4 * np.arange(8)))
         rings = robots[:, None] + corner[None, :]
-        octagons = [np.column_stack([r.real, r.imag]) for r in rings]
+        octagons = [tuple(map(tuple, r)) for r in np.stack([rings.real, rings.imag], -1).tolist()]
         other = self.empty_like()
         obstacles = list(self.obstacles)
         if len(self.vertices_) > self.local_min_vertices:  # a large arena: plan in a box round it

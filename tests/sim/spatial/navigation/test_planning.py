@@ -264,6 +264,25 @@ def test_obstacles_added_to_known_ones_give_the_graph_built_from_scratch(seed):
     assert fast.scalar_ == slow.scalar_
 
 
+def test_obstacles_kept_as_float_tuples_are_taken_as_they_are_and_others_converted():
+    """set_obstacles keeps every obstacle as a tuple of (x, y) float tuples: one given so
+    already is kept (path_around gives its planner's own and the octagons so), any other form
+    (arrays, lists, integer corners) is converted; the graph is the same either way."""
+    as_arrays = GridPlanner(spatial(()))
+    as_arrays.set_obstacles([np.array(BOX), np.array(TRIANGLE)])
+    ints = ((4, 4), (8, 4), (8, 8), (4, 8))
+    given = (tuple(map(tuple, np.array(BOX, dtype=float).tolist())), ints)
+    kept = GridPlanner(spatial(()))
+    kept.set_obstacles(given)
+    assert kept.obstacles[0] is given[0]
+    assert kept.obstacles[1] == tuple((float(x), float(y)) for x, y in ints)
+    assert all(type(c) is float for point in kept.obstacles[1] for c in point)
+    assert as_arrays.obstacles[0] == kept.obstacles[0]
+    again = GridPlanner(spatial(()))
+    again.set_obstacles(as_arrays.obstacles)
+    _same_graph(again, as_arrays)
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_the_visibility_graph_is_scipys_shortest_paths_over_the_visible_pairs(seed):
     """The geodesics and predecessors between vertices are those of

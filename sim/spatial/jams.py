@@ -43,6 +43,13 @@ JAM_RULES = (
     "look_ahead",
 )
 
+SMALL = 64  # an array of at most this many entries is reduced in plain Python (quicker)
+
+
+def _least(a: np.ndarray) -> float:
+    """The least entry of a float array without NaN (as ``float(a.min())``)."""
+    return min(a.tolist()) if len(a) <= SMALL else float(a.min())
+
 
 class Jams:
     """The jam rules for a fleet of robots.
@@ -212,7 +219,7 @@ class Jams:
         control period for :meth:`pass_workers` and :meth:`break_jams` (the nearest-robot search is
         a k-d tree over the fleet in a large team)."""
         f = self.fleet
-        if t - float(f.t_progress_s.min()) < self.rules.pass_s:
+        if t - _least(f.t_progress_s) < self.rules.pass_s:
             return []
         still = (
             (f.state == DRIVING)

@@ -720,3 +720,19 @@ def test_going_round_again_counts_one_more_try():
     f.recoveries[0] = 1
     assert jobs.jams.go_round(0, 30.0) is True
     assert f.recoveries[0] == 2 and jobs.jams.around_s[0] == 30.0
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.floats(allow_nan=False, allow_infinity=True, width=64), min_size=1, max_size=130
+    )
+)
+def test_the_least_entry_is_numpys_minimum_for_short_and_long_arrays(values):
+    """``_least`` (plain Python below ``SMALL`` entries, numpy above) returns what
+    ``float(a.min())`` does, infinities included."""
+    from sim.spatial.jams import SMALL, _least
+
+    a = np.array(values)
+    assert _least(a) == float(a.min())
+    assert _least(np.resize(a, SMALL + 1)) == float(np.resize(a, SMALL + 1).min())

@@ -724,9 +724,7 @@ def test_going_round_again_counts_one_more_try():
 
 @settings(max_examples=60, deadline=None)
 @given(
-    st.lists(
-        st.floats(allow_nan=False, allow_infinity=True, width=64), min_size=1, max_size=130
-    )
+    st.lists(st.floats(allow_nan=False, allow_infinity=True, width=64), min_size=1, max_size=130)
 )
 def test_the_least_entry_is_numpys_minimum_for_short_and_long_arrays(values):
     """``_least`` (plain Python below ``SMALL`` entries, numpy above) returns what

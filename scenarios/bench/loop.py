@@ -75,6 +75,7 @@ def bench_sim(
     avoidance: str = "none",
     control: str = "auto",
     traffic: str = "on",
+    timed: bool = True,
 ) -> dict[str, dict[str, float]]:
     """Measure the pymunk world's speed for each robot count.
 
@@ -89,6 +90,8 @@ def bench_sim(
         avoidance: ``[spatial] avoidance`` of the arenas, "none" or "orca".
         traffic: their ``[spatial.traffic] rules`` (with avoidance on), "on" or "off".
         control: the world's control period (``PymunkWorld``'s ``control``).
+        timed: time the parts of the loop (:func:`timed_parts` and the others) while it runs;
+            False leaves the loop as users run it (the timers' keys are then absent).
 
     Returns:
         ``{str(n): {"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
@@ -138,12 +141,7 @@ def bench_sim(
         _run(world, min(warm_s, sim_s), rng, allocate)
         touching0 = world.contacts.steps_touching
         counts0 = dict(getattr(allocate, "timings_", {}))
-        with (
-            timed_avoidance() as avoid_s,
-            timed_sites() as sites_s,
-            timed_period(type(world.control)) as control_s,
-            timed_parts(type(world.control)) as parts_s,
-        ):
+        with loop_timers(type(world.control), timed) as timers:
             steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
@@ -169,13 +167,7 @@ def bench_sim(
             "bare10_steps_per_s": 1.0 / bare10,
             "contact_share": share,
             "bids_ms": bids_ms,
-            "avoid_share": avoid_s[0] / wall,
-            "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
-            "sites_share": sites_s[0] / wall,
-            "sites_bare_ratio": (sites_s[0] / steps) / bare,
-            "control_share": control_s[0] / wall,
-            "control_calib_ratio": (control_s[0] / steps) / calib,
-            "parts_s": dict(parts_s),
+            **timer_figures(timers, wall, steps, bare, calib),
         }
         if counts.get("rounds"):
             rounds = counts["rounds"]
@@ -287,6 +279,42 @@ def bare_step_time(world: PymunkWorld, n: int) -> float:
 if __name__ == "__main__":
     for size, row in bench_sim().items():
         print(size, {k: round(v, 2) for k, v in row.items()})
+
+
+@contextlib.contextmanager
+def loop_timers(control: type, timed: bool = True):
+    """The bench's timers round a loop (:func:`timed_avoidance`, :func:`timed_sites`,
+    :func:`timed_period`, :func:`timed_parts`), or none with ``timed`` False. Yields
+    ``(avoid_s, sites_s, control_s, parts_s)``, or None untimed. The timers cost the loop
+    with avoidance more than the loop without (more of its calls are timed), so the price of
+    avoidance is measured untimed (:func:`scenarios.bench.run.bench_sim_part`)."""
+    if not timed:
+        yield None
+        return
+    with (
+        timed_avoidance() as avoid_s,
+        timed_sites() as sites_s,
+        timed_period(control) as control_s,
+        timed_parts(control) as parts_s,
+    ):
+        yield avoid_s, sites_s, control_s, parts_s
+
+
+def timer_figures(timers, wall: float, steps: int, bare: float, calib: float) -> dict:
+    """The figures of :func:`loop_timers` after a loop of ``wall`` seconds and ``steps``
+    physics steps (``bare``, ``calib``: a bare and a calibration step, s); none untimed."""
+    if timers is None:
+        return {}
+    avoid_s, sites_s, control_s, parts_s = timers
+    return {
+        "avoid_share": avoid_s[0] / wall,
+        "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
+        "sites_share": sites_s[0] / wall,
+        "sites_bare_ratio": (sites_s[0] / steps) / bare,
+        "control_share": control_s[0] / wall,
+        "control_calib_ratio": (control_s[0] / steps) / calib,
+        "parts_s": dict(parts_s),
+    }
 
 
 @contextlib.contextmanager

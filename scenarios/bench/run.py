@@ -84,30 +84,29 @@ class PlannedMarket:
 
 
 def bench_paper_loop(
-    sets: int = PAPER_SETS, seed: int = 0, avoidance: str = "none", traffic: str = "on"
+    sets: int = PAPER_SETS,
+    seed: int = 0,
+    avoidance: str = "none",
+    traffic: str = "on",
+    timed: bool = True,
 ) -> dict[str, float]:
     """The 10-robot paper scenario through the whole loop of ``mrta run`` (with
     ``[spatial] avoidance`` set to ``avoidance`` and ``[spatial.traffic] rules`` to
-    ``traffic``), against bare ``space.step`` on the same bodies afterwards.
+    ``traffic``), against bare ``space.step`` on the same bodies afterwards; with ``timed``
+    the parts of the loop are timed too (``scenarios.bench.loop.loop_timers``).
 
     Returns:
         ``{"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
         "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s", "avoid_share",
         "avoid_bare_ratio", "sites_share", "sites_bare_ratio", "control_share",
         "control_calib_ratio", "parts_s"}`` (as
-        :func:`scenarios.bench.loop.bench_sim` says).
+        :func:`scenarios.bench.loop.bench_sim` says; untimed, without the timers' keys).
     """
     import time
 
     from learning.episode import run_protocol
     from scenarios.bench.calibration import calibration_step_s
-    from scenarios.bench.loop import (
-        bare_step_time,
-        timed_avoidance,
-        timed_parts,
-        timed_period,
-        timed_sites,
-    )
+    from scenarios.bench.loop import bare_step_time, loop_timers, timer_figures
     from scenarios.protocol import RunSpec, build_run
     from sim.recording import TrajectoryRecorder
 
@@ -119,12 +118,7 @@ def bench_paper_loop(
     world.recorder = recorder
     steps0 = world.steps_
     t0 = time.perf_counter()
-    with (
-        timed_avoidance() as avoid_s,
-        timed_sites() as sites_s,
-        timed_period(type(world.control)) as control_s,
-        timed_parts(type(world.control)) as parts_s,
-    ):
+    with loop_timers(type(world.control), timed) as timers:
         run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
     wall = time.perf_counter() - t0
     steps = world.steps_ - steps0
@@ -141,13 +135,7 @@ def bench_paper_loop(
         "bare_steps_per_s": 1.0 / bare,
         "sim_s": steps * world.dt_s,
         "wall_s": wall,
-        "avoid_share": avoid_s[0] / wall,
-        "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
-        "sites_share": sites_s[0] / wall,
-        "sites_bare_ratio": (sites_s[0] / steps) / bare,
-        "control_share": control_s[0] / wall,
-        "control_calib_ratio": (control_s[0] / steps) / calib,
-        "parts_s": dict(parts_s),
+        **timer_figures(timers, wall, steps, bare, calib),
     }
 
 
@@ -241,9 +229,10 @@ def bench_map_bids(rounds: int = 20, seed: int = 0) -> dict:
     return out
 
 
-def run_bench(parts=PARTS, progress: bool = True, repeat: int = 1) -> dict:
+def run_bench(parts=PARTS, progress: bool = True, repeat: int = 1, split: bool = False) -> dict:
     """Run the chosen parts; print a readable table when ``progress`` is on. ``repeat``: rounds
-    of the ``sim`` part (:func:`bench_sim_part`)."""
+    of the ``sim`` part, ``split``: one timed round more to split its price
+    (:func:`bench_sim_part`)."""
     out: dict = {}
 
     def say(text: str) -> None:
@@ -251,7 +240,7 @@ def run_bench(parts=PARTS, progress: bool = True, repeat: int = 1) -> dict:
             print(text, file=sys.stdout, flush=True)
 
     if "sim" in parts:
-        out.update(bench_sim_part(say, repeat))
+        out.update(bench_sim_part(say, repeat, split))
     if "gif" in parts:
         from scenarios.bench.gif import bench_gif
 
@@ -303,34 +292,51 @@ def run_bench(parts=PARTS, progress: bool = True, repeat: int = 1) -> dict:
     return out
 
 
-def bench_sim_part(say, repeat: int = 1) -> dict:
+def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
     """The ``sim`` part: the loops without avoidance, with ORCA and the traffic rules (the
     defaults), and with ORCA alone (rules off), and what avoidance costs.
 
     ``repeat`` rounds, each timing the three loops in turn (so a slow spell of a shared machine
-    falls on all three alike). Each loop's figures are those of its quickest round (wall time
-    per simulated second; interference only ever slows a run down). A price is a ratio of two
-    loops of one round: that of the median round (by the price with the rules; of the two
-    middle rounds the lower), whose ORCA-alone price and split are given with it; the busy
-    arena's from its own median round. Taken from the loops' quickest rounds, a price would
-    mix rounds, and on a machine whose speed drifts for minutes it can lie outside every
-    round's own. ``avoidance_price[n]["price_rounds"]`` keeps the price of each round, whose
-    spread shows how far one round can be trusted."""
+    falls on all three alike), as users run them: no timer inside. Each loop's figures are
+    those of its quickest round (wall time per simulated second; interference only ever slows
+    a run down). A price is a ratio of two loops of one round: that of the median round (by
+    the price with the rules; of the two middle rounds the lower), whose ORCA-alone price is
+    given with it; the busy arena's from its own median round. Taken from the loops' quickest
+    rounds, a price would mix rounds, and on a machine whose speed drifts for minutes it can
+    lie outside every round's own. ``avoidance_price[n]["price_rounds"]`` keeps the price of
+    each round, whose spread shows how far one round can be trusted.
+
+    ``split``: one round more, its loops timed part by part
+    (``scenarios.bench.loop.loop_timers``), splits the price into the parts of the control
+    period (``avoidance_price[n]["price_parts"]``, with that round's own price,
+    ``timed_price``) and gives each loop's control period in calibration steps. The timers
+    slow the loop with avoidance more than the one without, which is why the price is not
+    taken from that round."""
     from scenarios.bench.loop import TIMED_PARTS, bench_sim
 
     say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
     runs = (("sim", "none", "on"), ("sim_orca", "orca", "on"), ("sim_orca_alone", "orca", "off"))
+
+    def one_round(timed: bool) -> dict:
+        got = {}
+        for key, avoidance, traffic in runs:
+            synthetic = bench_sim(
+                allocator=PlannedMarket, avoidance=avoidance, traffic=traffic, timed=timed
+            )
+            paper = bench_paper_loop(avoidance=avoidance, traffic=traffic, timed=timed)
+            paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
+            got[key] = {"10": paper, **synthetic}
+        return got
+
     rounds: list[dict] = []
     for r in range(repeat):
         if repeat > 1:
             say(f"  round {r + 1} of {repeat}")
-        got = {}
-        for key, avoidance, traffic in runs:
-            synthetic = bench_sim(allocator=PlannedMarket, avoidance=avoidance, traffic=traffic)
-            paper = bench_paper_loop(avoidance=avoidance, traffic=traffic)
-            paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
-            got[key] = {"10": paper, **synthetic}
-        rounds.append(got)
+        rounds.append(one_round(timed=False))
+    timed_round = None
+    if split:
+        say("  one round more, its loops timed part by part (the split of the price)")
+        timed_round = one_round(timed=True)
 
     def per_s(row: dict, prefix: str = "") -> float:
         return row[f"{prefix}wall_s"] / row[f"{prefix}sim_s"]
@@ -344,11 +350,15 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
         return best
 
     out = {key: {n: quickest(key, n) for n in rounds[0][key]} for key, _, _ in runs}
+    if timed_round is not None:  # the control period in calibration steps: timed loops only
+        for key, _, _ in runs:
+            for n, row in out[key].items():
+                row["control_calib_ratio"] = timed_round[key][n]["control_calib_ratio"]
 
     def price(on: dict, off: dict, prefix: str = "") -> float:
         return per_s(on, prefix) / per_s(off, prefix)
 
-    def split(on: dict, off: dict) -> dict[str, float]:
+    def split_price(on: dict, off: dict) -> dict[str, float]:
         """Where the price goes: each part's wall time per simulated second with avoidance
         less without, over the whole loop's without (``timed_parts``); ``rest`` is what no
         part holds (physics, bookkeeping, allocation, the timers). They add up to price - 1."""
@@ -374,23 +384,27 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
             off_b, on_b, alone_b = median_round(n, "busy_")
             row["busy_price"] = price(on_b, off_b, "busy_")
             row["busy_orca_alone_price"] = price(alone_b, off_b, "busy_")
-        if "parts_s" in on and "parts_s" in off:
-            row["price_parts"] = split(on, off)
+        if timed_round is not None:
+            on_t, off_t = timed_round["sim_orca"][n], timed_round["sim"][n]
+            row["timed_price"] = price(on_t, off_t)
+            row["price_parts"] = split_price(on_t, off_t)
         if repeat > 1:
             row["price_rounds"] = [price(got["sim_orca"][n], got["sim"][n]) for got in rounds]
         out["avoidance_price"][n] = row
+    control_column = "  of it the control period" if split else ""
     say(
         "  robots  avoidance     real-time factor  wall s per robot-hour  loop in calibration "
-        "steps per physics step (calibration step)  of it the control period  loop/bare step"
+        f"steps per physics step (calibration step){control_column}  loop/bare step"
     )
     labels = (("sim", "none"), ("sim_orca", "orca+rules"), ("sim_orca_alone", "orca alone"))
     for n in out["sim"]:
         for key, label in labels:
             r = out[key][n]
+            control = f"{'':>24}{r['control_calib_ratio']:>6.2f}" if split else ""
             say(
                 f"  {n:>6}  {label:>10}  {r['rtf']:>16,.1f}  {r['s_per_robot_h']:>21.2f}  "
-                f"{r['calib_ratio']:>14.2f} ({r['calib_step_us']:.1f} us){'':>24}"
-                f"{r['control_calib_ratio']:>6.2f}{'':>16}{r['bare_ratio']:.2f}"
+                f"{r['calib_ratio']:>14.2f} ({r['calib_step_us']:.1f} us){control}"
+                f"{'':>16}{r['bare_ratio']:.2f}"
             )
         p = out["avoidance_price"][n]
         what = "paper_spatial, the run loop" if n == "10" else "busy synthetic arena"
@@ -409,7 +423,10 @@ def bench_sim_part(say, repeat: int = 1) -> dict:
         )
         if "price_parts" in p:
             parts = ", ".join(f"{PRICE_LABELS[k]} {v:+.2f}" for k, v in p["price_parts"].items())
-            say(f"          of the price, in loops without avoidance: {parts}")
+            say(
+                f"          split, from the timed round (its price {p['timed_price']:.2f}), in "
+                f"loops without avoidance: {parts}"
+            )
     for n, r in out["sim"].items():
         if "field_build_s" in r:
             say(

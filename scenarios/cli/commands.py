@@ -363,7 +363,9 @@ def cmd_bench(args) -> int:
 
     if args.repeat > 1 and "sim" not in args.only:
         raise UserError(f"--repeat {args.repeat} repeats the sim part: add sim to --only")
-    result = run_bench(args.only, progress=not args.json, repeat=args.repeat)
+    if args.split and "sim" not in args.only:
+        raise UserError("--split splits the sim part's price: add sim to --only")
+    result = run_bench(args.only, progress=not args.json, repeat=args.repeat, split=args.split)
     if args.json:
         print(dumps(result))
     return 0

@@ -425,8 +425,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Measure, in this process: the spatial loop at 10, 100 and 1000 robots in "
         "the units users pay (real-time factor, wall seconds per simulated robot-hour, the price "
         "of collision avoidance as wall time with over without, with the traffic rules and with "
-        "ORCA alone, split into the control period, the traffic rules, look-ahead and the jam "
-        "rules, site work and the rest, and the loop per physics step "
+        "ORCA alone (with --split also split into the control period, the traffic rules, "
+        "look-ahead and the jam rules, site work and the rest), and the loop per physics step "
         "in steps of a fixed calibration space); our GIF writer against FuncAnimation + "
         "PillowWriter; allocation time per round against team size. --json prints one JSON "
         "object. Compare the ratios, not absolute times: machines are shared and noisy.",
@@ -445,6 +445,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="rounds of the sim part, each timing the three loops in turn; every figure is "
         "its loop's quickest round's, every price the median round's, with the price of each "
         "round beside it: use 3 or more to compare two commits (default 1)",
+    )
+    b.add_argument(
+        "--split",
+        action="store_true",
+        help="one round of the sim part more, with timers round the parts of the control "
+        "period, to split the price of avoidance into them (the timers slow the loop with "
+        "avoidance, so the price itself comes from the untimed rounds)",
     )
     h = sub.add_parser(
         "hardcase",

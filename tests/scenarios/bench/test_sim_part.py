@@ -34,11 +34,16 @@ def test_the_sim_part_prices_avoidance_with_and_without_the_rules(monkeypatch):
             "control_calib_ratio": 1.0, "bare_ratio": 1.0,
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on"):
+    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):
+        assert not timed  # the price comes from loops as users run them
         return {str(n): row(avoidance, traffic, 2.0) for n in (10, 100)}
 
+    def fake_paper(avoidance, traffic, timed=True):
+        assert not timed
+        return row(avoidance, traffic)
+
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
-    monkeypatch.setattr(run, "bench_paper_loop", lambda avoidance, traffic: row(avoidance, traffic))
+    monkeypatch.setattr(run, "bench_paper_loop", fake_paper)
     lines = []
     out = run.bench_sim_part(lines.append)
     assert set(seen) == set(wall)
@@ -78,12 +83,12 @@ def test_repeated_rounds_take_each_loops_quickest_round_and_the_median_rounds_pr
             "bare_ratio": 1.0, **(extra or {}),
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on"):
+    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):
         k = sum(1 for s in seen if s == ("sim", avoidance, traffic))
         seen.append(("sim", avoidance, traffic))
         return {"10": row(busy[avoidance, traffic][k]), "100": row(walls[avoidance, traffic][k])}
 
-    def fake_paper(avoidance, traffic):
+    def fake_paper(avoidance, traffic, timed=True):
         k = sum(1 for s in seen if s == ("paper", avoidance, traffic))
         seen.append(("paper", avoidance, traffic))
         return row(walls[avoidance, traffic][k], {"round": k})
@@ -108,43 +113,59 @@ def test_repeated_rounds_take_each_loops_quickest_round_and_the_median_rounds_pr
 
 
 def test_the_price_is_split_into_the_parts_of_the_control_period(monkeypatch):
-    """Each part's wall time per simulated second with avoidance less without, over the loop's
-    without: here the loop without takes 2 s per 100 s, with the rules 3 s per 50 s, so the
-    price is 3; the parts' shares and the rest add up to 2."""
+    """With ``split``, one round more times the loops part by part (the rounds before it
+    untimed). Each part's wall time per simulated second with avoidance less without, over the
+    loop's without: in the timed round the loop without takes 2 s per 100 s, with the rules
+    3 s per 50 s, so its price is 3; the parts' shares and the rest add up to 2. The price
+    itself is the untimed round's: 2.4 s per 50 s against 2 s per 100 s, 2.4."""
     parts = {
         ("none", "on"): {"control": 1.0, "traffic": 0.0, "jams": 0.0, "sites": 0.0},
         ("orca", "on"): {"control": 1.0, "traffic": 0.5, "jams": 0.25, "sites": 0.1},
         ("orca", "off"): {"control": 0.8, "traffic": 0.0, "jams": 0.2, "sites": 0.1},
     }
     wall = {("none", "on"): (2.0, 100.0), ("orca", "on"): (3.0, 50.0), ("orca", "off"): (2.0, 50.0)}
+    untimed = {("none", "on"): 2.0, ("orca", "on"): 2.4, ("orca", "off"): 2.0}
+    seen = []
 
-    def row(avoidance, traffic):
+    def row(avoidance, traffic, timed=True):
+        seen.append(timed)
         w, sim = wall[avoidance, traffic]
+        if not timed:
+            return {
+                "wall_s": untimed[avoidance, traffic], "sim_s": sim, "rtf": 1.0,
+                "s_per_robot_h": 1.0, "calib_ratio": 1.0, "calib_step_us": 1.0, "bare_ratio": 1.0,
+            }  # fmt: skip
         return {
             "wall_s": w, "sim_s": sim, "rtf": sim / w, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
-            "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0,
+            "calib_step_us": 1.0, "control_calib_ratio": 0.7, "bare_ratio": 1.0,
             "parts_s": dict(parts[avoidance, traffic]),
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on"):
-        return {"10": row(avoidance, traffic)}
+    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):
+        return {"10": row(avoidance, traffic, timed)}
 
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
     monkeypatch.setattr(run, "bench_paper_loop", row)
     lines = []
-    out = run.bench_sim_part(lines.append)
+    out = run.bench_sim_part(lines.append, split=True)
+    assert seen == [False] * 6 + [True] * 6  # the untimed round, then the timed one
     p10 = out["avoidance_price"]["10"]
-    assert p10["price"] == pytest.approx(3.0)
+    assert p10["price"] == pytest.approx(2.4)
+    assert p10["timed_price"] == pytest.approx(3.0)
     # per simulated second: control 0.02 with and 0.01 without, traffic 0.01, jams 0.005,
     # sites 0.002; over the 0.02 s per simulated second of the loop without
     want = {"control": 0.5, "traffic": 0.5, "jams": 0.25, "sites": 0.1, "rest": 0.65}
     assert p10["price_parts"] == pytest.approx(want)
-    assert sum(p10["price_parts"].values()) == pytest.approx(p10["price"] - 1.0)
+    assert sum(p10["price_parts"].values()) == pytest.approx(p10["timed_price"] - 1.0)
+    assert out["sim_orca"]["10"]["control_calib_ratio"] == 0.7
+    assert out["sim_orca"]["10"]["wall_s"] == 2.4  # the figures: the untimed round's
     text = "\n".join(lines)
     assert (
-        "of the price, in loops without avoidance: control period +0.50, traffic rules +0.50, "
-        "look-ahead and jam rules +0.25, site work +0.10, the rest +0.65"
+        "split, from the timed round (its price 3.00), in loops without avoidance: control "
+        "period +0.50, traffic rules +0.50, look-ahead and jam rules +0.25, site work +0.10, "
+        "the rest +0.65"
     ) in text
+    assert "of it the control period" in text
 
 
 def test_of_two_middle_rounds_the_lower_price_is_taken(monkeypatch):
@@ -152,7 +173,7 @@ def test_of_two_middle_rounds_the_lower_price_is_taken(monkeypatch):
     2.8 s against 2 s without): the price is 1.4, the lower of the two middle ones."""
     with_rules = iter([3.2, 2.4, 4.0, 2.8])
 
-    def row(avoidance, traffic, wall=2.0):
+    def row(avoidance, traffic, timed=True, wall=2.0):
         if (avoidance, traffic) == ("orca", "on"):
             wall = next(with_rules)
         return {
@@ -160,7 +181,7 @@ def test_of_two_middle_rounds_the_lower_price_is_taken(monkeypatch):
             "calib_ratio": 1.0, "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0,
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on"):  # the busy arena: 1.0
+    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):  # busy arena: 1.0
         return {"10": row("none", "on")}
 
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
@@ -174,14 +195,14 @@ def test_of_two_middle_rounds_the_lower_price_is_taken(monkeypatch):
 def test_one_round_reports_no_round_prices(monkeypatch):
     row = {"wall_s": 1.0, "sim_s": 10.0, "rtf": 10.0, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
            "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0}  # fmt: skip
-    monkeypatch.setattr(
-        loop, "bench_sim", lambda allocator=None, avoidance="none", traffic="on": {"10": dict(row)}
-    )
-    monkeypatch.setattr(run, "bench_paper_loop", lambda avoidance, traffic: dict(row))
+    monkeypatch.setattr(loop, "bench_sim", lambda **kw: {"10": dict(row)})
+    monkeypatch.setattr(run, "bench_paper_loop", lambda avoidance, traffic, timed: dict(row))
     lines = []
     out = run.bench_sim_part(lines.append)
     assert "price_rounds" not in out["avoidance_price"]["10"]
-    assert not any("round" in line or "best of" in line for line in lines)
+    assert "price_parts" not in out["avoidance_price"]["10"]
+    assert not any("round" in line or "best of" in line or "split" in line for line in lines)
+    assert not any("of it the control period" in line for line in lines)
 
 
 @pytest.mark.parametrize(
@@ -191,6 +212,7 @@ def test_one_round_reports_no_round_prices(monkeypatch):
         (["--only", "sim", "--repeat", "-2"], "must be at least 1, got -2"),
         (["--only", "sim", "--repeat", "two"], "--repeat"),
         (["--only", "gif", "--repeat", "3"], "--repeat 3 repeats the sim part: add sim to --only"),
+        (["--only", "gif", "--split"], "--split splits the sim part's price: add sim to --only"),
     ],
 )
 def test_a_bad_repeat_is_one_line_and_exit_2(args, message, monkeypatch, capsys):
@@ -207,15 +229,43 @@ def test_a_bad_repeat_is_one_line_and_exit_2(args, message, monkeypatch, capsys)
     assert len(err.splitlines()) == 1 and message in err and "Traceback" not in err
 
 
-def test_the_cli_passes_repeat_to_the_bench(monkeypatch, capsys):
+def test_the_cli_passes_repeat_and_split_to_the_bench(monkeypatch, capsys):
     import json
 
     import scenarios.bench as bench
     from scenarios.cli.app import main
 
     asked = []
-    monkeypatch.setattr(
-        bench, "run_bench", lambda parts, progress, repeat: asked.append((parts, repeat)) or {}
-    )
+
+    def fake(parts, progress, repeat, split):
+        asked.append((parts, repeat, split))
+        return {}
+
+    monkeypatch.setattr(bench, "run_bench", fake)
     assert main(["bench", "--only", "sim", "--repeat", "3", "--json"]) == 0
-    assert asked == [(["sim"], 3)] and json.loads(capsys.readouterr().out) == {}
+    assert main(["bench", "--only", "sim", "--split", "--json"]) == 0
+    assert asked == [(["sim"], 3, False), (["sim"], 1, True)]
+    assert [json.loads(part) for part in capsys.readouterr().out.split()] == [{}, {}]
+
+
+def test_an_untimed_loop_has_no_timer_in_it_and_reports_none_of_their_figures(monkeypatch):
+    """``timed=False`` runs the loop as users run it: the classes the timers wrap keep their
+    own methods meanwhile, and the row has the loop's figures without the timers' ones."""
+    from sim.spatial.control.compiled import CompiledControl
+    from sim.spatial.traffic.rules import Traffic
+
+    own = (CompiledControl.__dict__["period"], Traffic.__dict__["period"])
+    seen = []
+    real_run = loop._run
+
+    def spy(*args, **kwargs):
+        seen.append((CompiledControl.__dict__["period"], Traffic.__dict__["period"]))
+        return real_run(*args, **kwargs)
+
+    timer_keys = {"avoid_share", "sites_share", "control_share", "control_calib_ratio", "parts_s"}
+    monkeypatch.setattr(loop, "_run", spy)
+    off = loop.bench_sim(sizes=(10,), sim_seconds=3.0, avoidance="orca", timed=False)["10"]
+    on = loop.bench_sim(sizes=(10,), sim_seconds=3.0, avoidance="orca", timed=True)["10"]
+    assert seen[1] == own and seen[3] != own  # (each size: a warm-up run, then the timed one)
+    assert not timer_keys & set(off) and timer_keys <= set(on)
+    assert {"wall_s", "sim_s", "rtf", "calib_ratio", "bare_ratio"} <= set(off)

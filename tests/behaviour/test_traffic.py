@@ -251,7 +251,7 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     full one says quiet. The robots the rules follow are those with a chain ahead, a lock, a
     request or a hold, found from the robots given chains (``Traffic.chained``) as from all;
     those with a new path, found among the robots given one since (``PathFollower.sets_``), as
-    from the whole fleet's signatures."""
+    from the whole fleet's signatures (compared as arrays and one by one)."""
     from sim.spatial.traffic.rules import Traffic
 
     still, active, agreed, chained = Traffic._still, Traffic._active, [], []
@@ -276,7 +276,8 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
         end = fol.points[np.arange(len(fol.last)), np.maximum(fol.last, 0)]
         sig = np.stack([fol.points[:, 0], end, fol.last.astype(complex), fol.after_m[:, 0]])
         looked = int((fol.sets_ != self.sig_sets).sum())
-        out = new_paths(self)
+        few = 0 if len(renewed) % 2 else 2  # alternately as arrays and (up to 2) one by one
+        out = new_paths(self, few=few)
         assert out == (sig != self.sig).any(axis=0).nonzero()[0].tolist()
         assert np.array_equal(self.sig_sets, fol.sets_)
         renewed.append(looked)
@@ -323,6 +324,7 @@ def test_the_shortcut_for_a_quiet_period_changes_nothing(case, monkeypatch):
     assert any((s == DRIVING).any() for s in agreed) and any((s == WORKING).any() for s in agreed)
     assert any(chained) and not all(chained)
     assert any(renewed) and not all(renewed)  # robots looked at again, and periods with none
+    assert any(renewed[0::2]) and any(renewed[1::2])  # by both ways
 
 
 def test_a_robot_kept_out_at_the_mouth_holds_off_the_lane_round_it():

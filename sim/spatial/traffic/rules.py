@@ -38,6 +38,7 @@ from sim.states import DRIVING, IDLE, WORKING
 COUNTS = ("holds", "hold_s", "gave_up", "temporary", "round", "spot_near")  # (Locks has more)
 ROUND_AIR_M = 0.02  # a way planned round a robot at work keeps this much more than a body, m
 DETOUR_M = 0.2  # a path this much longer than the shortest is a detour another rule chose, m
+FEW_ROWS = 16  # up to this many robots' paths are compared in plain Python (Traffic._new_paths)
 
 
 class Traffic:
@@ -219,19 +220,32 @@ class Traffic:
         points = np.ascontiguousarray(points, dtype=complex)
         return way_gaps(points, self.fleet.last_z_m[rows], fol.points[rows], fol.index[rows])
 
-    def _new_paths(self) -> list[int]:
+    def _new_paths(self, few: int = FEW_ROWS) -> list[int]:
         """The robots whose path is not the one they were last annotated on (first and last
         point, last index or length differ from ``sig``), in order. Compared again only for
         the robots given a path or cleared since the last look (the follower's ``sets_``
-        against ``sig_sets``); the others keep their answer (``renewed``)."""
+        against ``sig_sets``); the others keep their answer (``renewed``). Up to ``few`` such
+        robots are compared one by one in plain Python (the same comparisons, without numpy's
+        overhead per array)."""
         fol = self.follower
         rows = (fol.sets_ != self.sig_sets).nonzero()[0]
-        if len(rows):
+        if len(rows) > few:
             last = fol.last[rows]
             end = fol.points[rows, np.maximum(last, 0)]
             sig = np.stack([fol.points[rows, 0], end, last.astype(complex), fol.after_m[rows, 0]])
             self.renewed[rows] = (sig != self.sig[:, rows]).any(axis=0)
             self.sig_sets[rows] = fol.sets_[rows]
+        else:
+            points, old = fol.points, self.sig
+            for j in rows.tolist():
+                last = int(fol.last[j])
+                self.renewed[j] = (
+                    points[j, 0] != old[0, j]
+                    or points[j, max(last, 0)] != old[1, j]
+                    or last != old[2, j]
+                    or fol.after_m[j, 0] != old[3, j]
+                )
+                self.sig_sets[j] = fol.sets_[j]
         return self.renewed.nonzero()[0].tolist()
 
     def _step(self, j: int, t: float) -> None:

@@ -24,27 +24,9 @@ import math
 import numba
 import numpy as np
 
+from sim.spatial.navigation.baseline import clip01, modulus
+
 TOL_M = 1e-9  # a line touching a polygon's boundary meets it (``geometry.TOL_M``)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _modulus(x: float, y: float) -> float:
-    """|x + iy| as numpy's baseline kernel computes it."""
-    re, im = abs(x), abs(y)
-    big, small = max(re, im), min(re, im)
-    if big == 0.0:
-        return 0.0
-    if math.isinf(big):
-        return math.inf
-    ratio = small / big
-    return big * math.sqrt(1.0 + ratio * ratio)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _clip01(x: float) -> float:
-    """``np.clip(x, 0.0, 1.0)`` as numpy computes it (a -0.0 comes out as 0.0)."""
-    x = x if x > 0.0 else 0.0
-    return x if x < 1.0 else 1.0
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -53,9 +35,9 @@ def _to_segment(p: complex, a: complex, b: complex) -> tuple[float, complex]:
     dr, di = b.real - a.real, b.imag - a.imag
     dd = max(dr * dr - di * -di, 1e-24)  # (d conj(d)).real
     ur, ui = p.real - a.real, p.imag - a.imag
-    t = _clip01((ur * dr - ui * -di) / dd)  # ((p - a) conj(d)).real / dd
+    t = clip01((ur * dr - ui * -di) / dd)  # ((p - a) conj(d)).real / dd
     near = complex(a.real + (t * dr - 0.0 * di), a.imag + (t * di + 0.0 * dr))  # a + t d
-    return _modulus(p.real - near.real, p.imag - near.imag), near
+    return modulus(p.real - near.real, p.imag - near.imag), near
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -208,25 +190,25 @@ def way_waits(
             seg2[c] = sr * sr - si * -si
             seg_m[c] = math.sqrt(seg2[c])
         aim = pts[r, idx[r]]
-        total = _modulus(aim.real - z[r].real, aim.imag - z[r].imag) + after[r, idx[r]]
+        total = modulus(aim.real - z[r].real, aim.imag - z[r].imag) + after[r, idx[r]]
         for k in range(w):
             best, near, best_frac = math.inf, 0, 0.0
             for c in range(width):
                 sr, si = seg[c].real, seg[c].imag
                 rr = work_z[k].real - start[c].real
                 ri = work_z[k].imag - start[c].imag
-                frac = _clip01((rr * sr - ri * -si) / max(seg2[c], 1e-18))
+                frac = clip01((rr * sr - ri * -si) / max(seg2[c], 1e-18))
                 if c == 0:
                     best_frac = frac  # numpy's argmin of all inf: the first
                 if not (idx[r] <= c <= last[r]):
                     continue  # not on the way ahead: inf, never the least
-                gap = _modulus(rr - (frac * sr - 0.0 * si), ri - (frac * si + 0.0 * sr))
+                gap = modulus(rr - (frac * sr - 0.0 * si), ri - (frac * si + 0.0 * sr))
                 if gap < best:
                     best, near, best_frac = gap, c, frac
             rest = after[r, near] + (1.0 - best_frac) * seg_m[near]
             way = total - rest
             other = (
-                _modulus(
+                modulus(
                     service[r].real - work_service[k].real, service[r].imag - work_service[k].imag
                 )
                 > 1e-6
@@ -268,14 +250,14 @@ def free_place(
             if not (abs(p.real - site.real) <= lim and abs(p.imag - site.imag) <= lim):
                 continue
             for c in range(n):
-                if _modulus(p.real - places[c].real, p.imag - places[c].imag) < room:
+                if modulus(p.real - places[c].real, p.imag - places[c].imag) < room:
                     taken[c] = True
     if not taken[0]:
         return 0
     best, pick = math.inf, -1
     for c in range(n):
         if not taken[c]:
-            d = _modulus(places[c].real - here.real, places[c].imag - here.imag)
+            d = modulus(places[c].real - here.real, places[c].imag - here.imag)
             if d < best:
                 best, pick = d, c
     return pick

@@ -30,7 +30,7 @@ import numpy as np
 
 from sim.scenario import FollowSpec
 from sim.spatial.navigation.buckets import EDGE_CELLS_MIN_EDGES, BoxBuckets, EdgeCells, typical_size
-from sim.spatial.navigation.widths import segment_sides
+from sim.spatial.navigation.widths import free_widths, segment_sides
 
 SCALAR_FREE_MAX = 48  # free widths of fewer (segment, obstacle edge) pairs in plain Python
 CELLS_FROM = 2048  # to_obstacle looks up grid cells for more (point, edge) pairs than this
@@ -444,20 +444,9 @@ class PathFollower:
             for k, (p, q) in enumerate(zip(a.tolist(), b.tolist(), strict=True)):
                 out[k] = self._free_one(p, q)
             return out
+        a, b = np.ascontiguousarray(a, dtype=complex), np.ascontiguousarray(b, dtype=complex)
         e0, e1, v = self.edge0_, self.edge1_, self.verts_
-        ends = np.minimum(_to_segments(a[:, None], e0, e1), _to_segments(b[:, None], e0, e1))
-        dist = np.minimum(
-            np.minimum.reduceat(ends, self.edge_start_, axis=1),
-            np.minimum.reduceat(_to_segments(v, a[:, None], b[:, None]), self.vert_start_, axis=1),
-        )
-        dist -= self.radius_m
-        unit = (b - a) / np.maximum(np.abs(b - a), 1e-12)
-        side = ((v - a[:, None]) * unit.conj()[:, None]).imag  # > 0: left of the segment
-        left = np.maximum.reduceat(side > -1e-9, self.vert_start_, axis=1)
-        right = np.maximum.reduceat(side < 1e-9, self.vert_start_, axis=1)
-        out[:, 0] = np.where(left, dist, np.inf).min(axis=1)
-        out[:, 1] = np.where(right, dist, np.inf).min(axis=1)
-        return np.maximum(out, 0.0)
+        return free_widths(a, b, v, self.vert_start_, e0, e1, self.edge_start_, self.radius_m)
 
     def _near_cap(self, a: complex, b: complex) -> list[int]:
         """Obstacles (indices) whose bounding box is within ``cap_m`` + radius of the
@@ -528,10 +517,3 @@ def _to_segment(p: complex, s0: complex, s1: complex) -> float:
     t = ((p - s0) * d.conjugate()).real / dd if dd > 1e-24 else 0.0
     t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
     return abs(p - s0 - t * d)
-
-
-def _to_segments(p: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
-    """Distance from points p to segments s0 -> s1 (complex, broadcast together)."""
-    d = s1 - s0
-    t = ((p - s0) * d.conj()).real / np.maximum((d * d.conj()).real, 1e-24)
-    return np.abs(p - s0 - np.minimum(np.maximum(t, 0.0), 1.0) * d)

@@ -9,6 +9,11 @@ complex over a float by Smith's method (which, for a real divisor, divides each 
 ``abs`` as libm's ``hypot`` (numba's ``abs`` of a complex calls it, as Python's does). So the
 widths are Python's bit for bit (tests/sim/spatial/navigation/test_widths.py), on every CPU:
 none of it goes through numpy's kernels.
+
+:func:`free_widths` is the widths of many segments at once against every obstacle (a path
+given to a robot, an auction round's paths), as ``PathFollower._free`` first computed them with
+numpy arrays: the same arithmetic as numpy's baseline kernels (``sim.spatial.plane``), so
+numpy's answers bit for bit with ``NPY_ENABLE_CPU_FEATURES=X86_V2`` (the golden runs').
 """
 
 from __future__ import annotations
@@ -17,6 +22,8 @@ import math
 
 import numba
 import numpy as np
+
+from sim.spatial.navigation.baseline import clip01, modulus
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -73,3 +80,69 @@ def segment_sides(
         if lo_side < 1e-9:
             right = min(right, dist)
     return left, right
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _gap(pr: float, pi: float, ar: float, ai: float, br: float, bi: float) -> float:
+    """Distance from point p to segment a -> b as numpy computes ``|p - a - clip(t) d|`` with
+    ``d = b - a``, ``t = ((p - a) conj(d)).real / max((d conj(d)).real, 1e-24)``."""
+    dr, di = br - ar, bi - ai
+    xr, xi = pr - ar, pi - ai
+    t = clip01((xr * dr - xi * -di) / max(dr * dr - di * -di, 1e-24))
+    return modulus(xr - (t * dr - 0.0 * di), xi - (t * di + 0.0 * dr))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _span(start: np.ndarray, k: int, total: int) -> tuple[int, int]:
+    """Obstacle k's slice of an array grouped by ``start``, as ``np.minimum.reduceat`` takes
+    it (an empty group gives the one element at its start)."""
+    end = start[k + 1] if k + 1 < len(start) else total
+    return start[k], max(end, start[k] + 1)
+
+
+@numba.njit(cache=True, nogil=True)
+def free_widths(
+    a: np.ndarray,
+    b: np.ndarray,
+    verts: np.ndarray,
+    vert_start: np.ndarray,
+    edge0: np.ndarray,
+    edge1: np.ndarray,
+    edge_start: np.ndarray,
+    radius_m: float,
+) -> np.ndarray:
+    """(S, 2) free width left and right of the segments a -> b (S,): distance to the nearest
+    obstacle on that side (one that straddles the segment's line counts on both) less
+    ``radius_m``, at least 0; obstacle k has the vertices from ``verts[vert_start[k]]`` and the
+    edges ``edge0 -> edge1`` from ``edge_start[k]`` on (to the next one's start)."""
+    out = np.empty((len(a), 2))
+    for s in range(len(a)):
+        ar, ai, br, bi = a[s].real, a[s].imag, b[s].real, b[s].imag
+        dr, di = br - ar, bi - ai
+        size = max(modulus(dr, di), 1e-12)
+        rat = 0.0 / size  # (b - a) / size: numpy divides by the complex (size, 0), Smith's way
+        scl = 1.0 / (size + 0.0 * rat)
+        ur, ui = (dr + di * rat) * scl, (di - dr * rat) * scl
+        left = right = math.inf
+        for k in range(len(vert_start)):
+            dist = math.inf
+            e_lo, e_hi = _span(edge_start, k, len(edge0))
+            for e in range(e_lo, e_hi):
+                p, q = edge0[e], edge1[e]
+                dist = min(dist, _gap(ar, ai, p.real, p.imag, q.real, q.imag))
+                dist = min(dist, _gap(br, bi, p.real, p.imag, q.real, q.imag))
+            on_left = on_right = False
+            v_lo, v_hi = _span(vert_start, k, len(verts))
+            for v in range(v_lo, v_hi):
+                pr, pi = verts[v].real, verts[v].imag
+                dist = min(dist, _gap(pr, pi, ar, ai, br, bi))
+                side = (pr - ar) * -ui + (pi - ai) * ur  # ((v - a) conj(unit)).imag: > 0 left
+                on_left = on_left or side > -1e-9
+                on_right = on_right or side < 1e-9
+            dist -= radius_m
+            if on_left:
+                left = min(left, dist)
+            if on_right:
+                right = min(right, dist)
+        out[s, 0], out[s, 1] = max(left, 0.0), max(right, 0.0)
+    return out

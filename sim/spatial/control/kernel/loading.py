@@ -91,6 +91,7 @@ def event_kernels() -> tuple:
         segments.blocked_segments,
         geodesics.visibility_geodesics,
         widths.segment_sides,
+        widths.free_widths,
         plane.polygon_gap,
         plane.clip_line,
         plane.path_gaps,
@@ -155,6 +156,7 @@ def warm_events() -> None:
     )
     geodesics.visibility_geodesics(xy, one, one + 1)
     widths.segment_sides(0j, 1 + 0j, one, z, one, one + 4, z, z, one, one + 4)
+    widths.free_widths(z[:1], z[1:2], z, one, z, z, one, 0.2)
     plane.polygon_gap(z, z + 3)
     plane.clip_line(0.5j, 1 + 0j, z)
     plane.path_gaps(z, z)

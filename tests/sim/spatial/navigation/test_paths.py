@@ -17,7 +17,8 @@ from sim.scenario import (
     FollowSpec,
 )
 from sim.spatial.controller import DiffDriveController
-from sim.spatial.navigation.paths import SCALAR_FREE_MAX, PathFollower, _to_segment, _to_segments
+from sim.spatial.navigation.paths import SCALAR_FREE_MAX, PathFollower, _to_segment
+from sim.spatial.navigation.widths import _gap
 
 # the settings' defaults (sim.scenario), under the names these tests use
 LOOKAHEAD_M = FollowSpec().lookahead_m
@@ -125,14 +126,16 @@ def test_an_obstacle_straddling_the_segment_s_line_bounds_both_sides():
     ],
 )
 def test_point_to_segment_distance_by_hand(p, want):
-    """Both helpers, in plain Python and over arrays, and with the segment reversed."""
+    """Both helpers, in plain Python and compiled as numpy computes it, and with the segment
+    reversed."""
     s0, s1 = 0.0 + 0.0j, 4.0 + 0.0j
     assert _to_segment(p, s0, s1) == pytest.approx(want, abs=1e-12)
     assert _to_segment(p, s1, s0) == pytest.approx(want, abs=1e-12)
-    got = _to_segments(np.array([p, p]), np.array([s0, s1]), np.array([s1, s0]))
+    got = [_gap(p.real, p.imag, s0.real, s0.imag, s1.real, s1.imag)]
+    got.append(_gap(p.real, p.imag, s1.real, s1.imag, s0.real, s0.imag))
     np.testing.assert_allclose(got, [want, want], rtol=0, atol=1e-12)
     assert _to_segment(p, 1.0 + 1.0j, 1.0 + 1.0j) == pytest.approx(abs(p - 1.0 - 1.0j))
-    assert _to_segments(np.array([p]), np.array([1j]), np.array([1j]))[0] == pytest.approx(
+    assert _gap(p.real, p.imag, 0.0, 1.0, 0.0, 1.0) == pytest.approx(
         abs(p - 1j)
     )  # a segment of no length: the distance to its point
 

@@ -126,6 +126,31 @@ def path_gaps(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True)
+def workers_by_way(
+    rows: np.ndarray, z: np.ndarray, way: np.ndarray, grow_m: float, service: np.ndarray, j: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Of the robots ``rows`` (at ``z[rows]``, in order), those strictly inside the box of the
+    points ``way`` grown by ``grow_m``, and whether each has robot j's service point (within
+    1e-6 m of ``service[j]``)."""
+    x0, x1, y0, y1 = way[0].real, way[0].real, way[0].imag, way[0].imag
+    for k in range(1, len(way)):
+        x0, x1 = min(x0, way[k].real), max(x1, way[k].real)
+        y0, y1 = min(y0, way[k].imag), max(y1, way[k].imag)
+    x0, x1, y0, y1 = x0 - grow_m, x1 + grow_m, y0 - grow_m, y1 + grow_m
+    out = np.empty(len(rows), dtype=np.int64)
+    same = np.empty(len(rows), dtype=np.bool_)
+    n = 0
+    for r in rows:
+        x, y = z[r].real, z[r].imag
+        if x > x0 and x < x1 and y > y0 and y < y1:
+            out[n] = r
+            d = service[r] - service[j]
+            same[n] = not modulus(d.real, d.imag) > 1e-6
+            n += 1
+    return out[:n], same[:n]
+
+
+@numba.njit(cache=True, nogil=True)
 def way_gaps(points: np.ndarray, z: np.ndarray, paths: np.ndarray, index: np.ndarray) -> np.ndarray:
     """(R,) distance from the nearest of ``points`` to each robot's way ahead: from where it is
     (``z[r]``) to the waypoint it aims at (``paths[r, index[r]]``), then along its path's

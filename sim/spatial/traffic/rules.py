@@ -27,7 +27,7 @@ from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import FleetState
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.plane import way_gaps
+from sim.spatial.plane import way_gaps, workers_by_way
 from sim.spatial.sites import Sites
 from sim.spatial.traffic.annotate import Chain, chains, crossings, left_along
 from sim.spatial.traffic.geometry import path_gaps
@@ -349,15 +349,13 @@ class Traffic:
         f, r = self.fleet, self.radius_m
         if self.spec.at_work != "on":
             return False
-        rows = self.working.nonzero()[0]
         pass_m = self.map.pass_m
-        zw = f.last_z_m[rows]  # those outside the way's box grown by a pass cannot be near it
-        box = (zw.real > pts.real.min() - pass_m) & (zw.real < pts.real.max() + pass_m)
-        box &= (zw.imag > pts.imag.min() - pass_m) & (zw.imag < pts.imag.max() + pass_m)
-        rows = rows[box]
-        service = self.sites.service
-        other = np.abs(service[rows] - service[j]) > 1e-6
-        for k in (~other).nonzero()[0].tolist():
+        # those outside the way's box grown by a pass cannot be near it
+        rows, same = workers_by_way(
+            self.working.nonzero()[0], f.last_z_m, pts, pass_m, self.sites.service, j
+        )
+        other = ~same
+        for k in same.nonzero()[0].tolist():
             other[k] = self.map.narrowed_by_walls(int(rows[k]))  # its own site's, in an aisle
         other &= rows != j
         rows = rows[other]

@@ -117,6 +117,14 @@ def np_way_waits(pts, idx, last, after, z, service, work_z, work_service, end_s,
     return wait, along, np.where(other, nearest, np.inf)
 
 
+def np_workers_by_way(rows, z, way, grow_m, service, j):
+    zw = z[rows]
+    box = (zw.real > way.real.min() - grow_m) & (zw.real < way.real.max() + grow_m)
+    box &= (zw.imag > way.imag.min() - grow_m) & (zw.imag < way.imag.max() + grow_m)
+    rows = rows[box]
+    return rows, ~(np.abs(service[rows] - service[j]) > 1e-6)
+
+
 def np_free_place(places, site, kept, keeping, z, standing, lim, room, here):
     def within(points, centre):
         d = points - centre
@@ -231,6 +239,16 @@ def all_cases(seed: int):
             args += (rng.uniform(0, 30, n), float(rng.uniform(0, 10)), 0.7, 0.6)
             got, want = plane.way_waits(*args), np_way_waits(*args)
             yield name, np.concatenate(got, axis=None), np.concatenate(want, axis=None)
+    rng = np.random.default_rng([seed, 1])
+    for _ in range(200):  # robots at work by a way: on a grid, so some lie on the box's edge
+        m = int(rng.integers(1, 30))
+        z = rng.integers(0, 7, m) + 1j * rng.integers(0, 7, m) + rng.normal(0, 0.3, m) * (m % 2)
+        way = rng.integers(0, 7, int(rng.integers(1, 6))) + 1j * rng.integers(0, 7, 1)
+        service = rng.integers(0, 3, m) + 1e-7 * rng.integers(0, 20, m) + 0j
+        rows = np.flatnonzero(rng.random(m) < 0.7)
+        args = (rows, z, way, float(rng.choice([0.5, 1.0, 1.3])), service, int(rng.integers(m)))
+        got, want = plane.workers_by_way(*args), np_workers_by_way(*args)
+        yield "workers_by_way", np.concatenate(got), np.concatenate(want)
 
 
 def place_cases(rng: np.random.Generator, grid: bool):
@@ -300,6 +318,7 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "way_waits_grid": 200,
         "free_place": 200,
         "free_place_grid": 200,
+        "workers_by_way": 200,
     }
 
 

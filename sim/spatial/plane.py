@@ -126,12 +126,35 @@ def path_gaps(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True)
+def near_box(way: np.ndarray, cx: np.ndarray, cy: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """Indices, in order, of the points (cx, cy) that lie within their ``reach`` of the box of
+    the points ``way`` (x + iy): lo - reach <= c <= hi + reach in x and in y (none for no
+    points)."""
+    if not len(way):
+        return np.empty(0, dtype=np.int64)
+    x0, x1, y0, y1 = way[0].real, way[0].real, way[0].imag, way[0].imag
+    for k in range(1, len(way)):
+        x0, x1 = min(x0, way[k].real), max(x1, way[k].real)
+        y0, y1 = min(y0, way[k].imag), max(y1, way[k].imag)
+    out = np.empty(len(cx), dtype=np.int64)
+    n = 0
+    for i in range(len(cx)):
+        x, y, d = cx[i], cy[i], reach[i]
+        if x0 - d <= x and x <= x1 + d and y0 - d <= y and y <= y1 + d:
+            out[n] = i
+            n += 1
+    return out[:n]
+
+
+@numba.njit(cache=True, nogil=True)
 def workers_by_way(
     rows: np.ndarray, z: np.ndarray, way: np.ndarray, grow_m: float, service: np.ndarray, j: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """Of the robots ``rows`` (at ``z[rows]``, in order), those strictly inside the box of the
     points ``way`` grown by ``grow_m``, and whether each has robot j's service point (within
-    1e-6 m of ``service[j]``)."""
+    1e-6 m of ``service[j]``); none for no points."""
+    if not len(way):
+        return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_)
     x0, x1, y0, y1 = way[0].real, way[0].real, way[0].imag, way[0].imag
     for k in range(1, len(way)):
         x0, x1 = min(x0, way[k].real), max(x1, way[k].real)

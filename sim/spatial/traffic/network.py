@@ -16,6 +16,7 @@ import numpy as np
 
 from sim.scenario import SpatialSpec
 from sim.spatial.navigation.planning import GridPlanner
+from sim.spatial.plane import near_box
 from sim.spatial.traffic.annotate import Chain, Crossing, hold_points, left_along
 from sim.spatial.traffic.geometry import as_complex, to_segments, walls
 from sim.spatial.traffic.passages import (
@@ -122,11 +123,8 @@ class PassageMap:
             reach = np.array([p.half_length_m + p.half_width_m for _, p in items])
             self.table_ = (self.version_, items, cx, cy, reach)
         _, items, cx, cy, reach = self.table_
-        lo = complex(way.real.min(), way.imag.min())
-        hi = complex(way.real.max(), way.imag.max())
-        keep = (lo.real - reach <= cx) & (cx <= hi.real + reach)
-        keep &= (lo.imag - reach <= cy) & (cy <= hi.imag + reach)
-        return [items[k] for k in keep.nonzero()[0].tolist()]
+        way = np.ascontiguousarray(way, dtype=complex)
+        return [items[k] for k in near_box(way, cx, cy, reach).tolist()]
 
     def update_workers(
         self, changed: np.ndarray, work: np.ndarray, z: np.ndarray, block: int = BLOCK

@@ -125,6 +125,14 @@ def np_workers_by_way(rows, z, way, grow_m, service, j):
     return rows, ~(np.abs(service[rows] - service[j]) > 1e-6)
 
 
+def np_near_box(way, cx, cy, reach):
+    lo = complex(way.real.min(), way.imag.min())
+    hi = complex(way.real.max(), way.imag.max())
+    keep = (lo.real - reach <= cx) & (cx <= hi.real + reach)
+    keep &= (lo.imag - reach <= cy) & (cy <= hi.imag + reach)
+    return keep.nonzero()[0]
+
+
 def np_free_place(places, site, kept, keeping, z, standing, lim, room, here):
     def within(points, centre):
         d = points - centre
@@ -249,6 +257,11 @@ def all_cases(seed: int):
         args = (rows, z, way, float(rng.choice([0.5, 1.0, 1.3])), service, int(rng.integers(m)))
         got, want = plane.workers_by_way(*args), np_workers_by_way(*args)
         yield "workers_by_way", np.concatenate(got), np.concatenate(want)
+        k = int(rng.integers(0, 12))  # passages' centres by a way, reach as their sizes
+        cx = rng.integers(0, 7, k) + 0.0
+        cy = rng.integers(0, 7, k) + rng.normal(0, 0.3, k) * (m % 2)
+        reach = rng.choice([0.5, 1.0, 1.3], k)
+        yield "near_box", plane.near_box(way, cx, cy, reach), np_near_box(way, cx, cy, reach)
 
 
 def place_cases(rng: np.random.Generator, grid: bool):
@@ -319,6 +332,7 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "free_place": 200,
         "free_place_grid": 200,
         "workers_by_way": 200,
+        "near_box": 200,
     }
 
 

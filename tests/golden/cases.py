@@ -178,6 +178,17 @@ def compute_portable(names=(), env=None) -> dict:
     return json.loads(child.stdout)
 
 
+def in_baseline_child(module: str, call: str):
+    """``call`` (an expression on the names of the Python file ``module``) evaluated in a child
+    Python with :data:`PORTABLE_ENV` (numpy's baseline kernels); its value, through JSON."""
+    env = {**os.environ, **PORTABLE_ENV, "PYTHONPATH": str(ROOT)}
+    code = f"import json, runpy; ns = runpy.run_path({module!r}); print(json.dumps({call}))"
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def baseline_only() -> bool:
     """True if this process's numpy uses its baseline kernels only (no dispatched ones)."""
     from numpy._core import _multiarray_umath as umath

@@ -9,21 +9,13 @@ reference the compiled functions are held to.
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from sim.spatial import plane
 from sim.spatial.traffic.geometry import TOL_M, clip_line, disc_polygon, path_gaps, polygon_gap
 from sim.spatial.traffic.geometry import to_segments as np_to_segments
-
-ROOT = Path(__file__).resolve().parents[3]
-PORTABLE_ENV = {"NPY_ENABLE_CPU_FEATURES": "X86_V2"}  # as tests/golden/cases.py
+from tests.golden.cases import in_baseline_child
 
 
 # -- the numpy reference -------------------------------------------------------------------
@@ -356,15 +348,8 @@ def test_cases_hold_touches_overlaps_misses_and_parallel_lines():
 def test_compiled_geometry_is_numpys_bit_for_bit_with_baseline_kernels():
     """In a child Python with numpy's baseline kernels (what the golden runs use), every
     answer is numpy's to the last bit."""
-    env = {**os.environ, **PORTABLE_ENV, "PYTHONPATH": str(ROOT)}
-    code = (
-        f"import json, runpy; ns = runpy.run_path({__file__!r}); "
-        "print(json.dumps({s: ns['exact_mismatches'](s) for s in (0, 1)}))"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
-    )
-    tallies = json.loads(out.stdout.strip().splitlines()[-1])
+    call = "{s: ns['exact_mismatches'](s) for s in (0, 1)}"
+    tallies = in_baseline_child(__file__, call)
     for seed, by_name in tallies.items():
         for name, (checked, differ) in by_name.items():
             assert checked > 0 and differ == 0, (seed, name, checked, differ)

@@ -8,10 +8,6 @@ rounding with the kernels this CPU dispatches."""
 
 from __future__ import annotations
 
-import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -19,10 +15,9 @@ import pytest
 
 from scenarios.loader import load_scenario
 from sim.spatial.navigation.paths import SCALAR_FREE_MAX, PathFollower, _to_segment
+from tests.golden.cases import in_baseline_child
 
-ROOT = Path(__file__).resolve().parents[4]
 TB3 = Path(__file__).parents[3] / "scenarios" / "maps" / "tb3_sandbox.toml"
-PORTABLE_ENV = {"NPY_ENABLE_CPU_FEATURES": "X86_V2"}  # as tests/golden/cases.py
 
 
 def python_sides(fol: PathFollower, a: complex, b: complex, owners) -> tuple[float, float]:
@@ -141,15 +136,7 @@ def test_widths_of_many_segments_are_numpys_within_rounding(scenario, seed):
 def test_widths_of_many_segments_are_numpys_bit_for_bit_with_baseline_kernels():
     """In a child Python with numpy's baseline kernels (what the golden runs use), every
     width is numpy's to the last bit."""
-    env = {**os.environ, **PORTABLE_ENV, "PYTHONPATH": str(ROOT)}
-    code = (
-        f"import json, runpy; ns = runpy.run_path({__file__!r}); "
-        "print(json.dumps(ns['many_mismatches']()))"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
-    )
-    tallies = json.loads(out.stdout.strip().splitlines()[-1])
+    tallies = in_baseline_child(__file__, "ns['many_mismatches']()")
     assert len(tallies) == len(MANY)
     for (scenario, _), (checked, differ) in zip(MANY, tallies, strict=True):
         assert checked == 300 and differ == 0, (scenario, differ)

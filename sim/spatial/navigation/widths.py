@@ -12,8 +12,10 @@ none of it goes through numpy's kernels.
 
 :func:`free_widths` is the widths of many segments at once against every obstacle (a path
 given to a robot, an auction round's paths), as ``PathFollower._free`` first computed them with
-numpy arrays: the same arithmetic as numpy's baseline kernels (``sim.spatial.plane``), so
-numpy's answers bit for bit with ``NPY_ENABLE_CPU_FEATURES=X86_V2`` (the golden runs').
+numpy arrays: the same arithmetic as numpy's baseline kernels
+(``sim.spatial.navigation.baseline``), so numpy's answers bit for bit with
+``NPY_ENABLE_CPU_FEATURES=X86_V2`` (the golden runs') and within rounding with numpy's AVX2
+kernels, which fuse.
 """
 
 from __future__ import annotations

@@ -125,6 +125,16 @@ def path_gaps(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     return out
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _box(way: np.ndarray) -> tuple[float, float, float, float]:
+    """The box of the points ``way`` (at least one, x + iy): least x, most x, least y, most y."""
+    x0, x1, y0, y1 = way[0].real, way[0].real, way[0].imag, way[0].imag
+    for k in range(1, len(way)):
+        x0, x1 = min(x0, way[k].real), max(x1, way[k].real)
+        y0, y1 = min(y0, way[k].imag), max(y1, way[k].imag)
+    return x0, x1, y0, y1
+
+
 @numba.njit(cache=True, nogil=True)
 def near_box(way: np.ndarray, cx: np.ndarray, cy: np.ndarray, reach: np.ndarray) -> np.ndarray:
     """Indices, in order, of the points (cx, cy) that lie within their ``reach`` of the box of
@@ -132,10 +142,7 @@ def near_box(way: np.ndarray, cx: np.ndarray, cy: np.ndarray, reach: np.ndarray)
     points)."""
     if not len(way):
         return np.empty(0, dtype=np.int64)
-    x0, x1, y0, y1 = way[0].real, way[0].real, way[0].imag, way[0].imag
-    for k in range(1, len(way)):
-        x0, x1 = min(x0, way[k].real), max(x1, way[k].real)
-        y0, y1 = min(y0, way[k].imag), max(y1, way[k].imag)
+    x0, x1, y0, y1 = _box(way)
     out = np.empty(len(cx), dtype=np.int64)
     n = 0
     for i in range(len(cx)):
@@ -155,10 +162,7 @@ def workers_by_way(
     1e-6 m of ``service[j]``); none for no points."""
     if not len(way):
         return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.bool_)
-    x0, x1, y0, y1 = way[0].real, way[0].real, way[0].imag, way[0].imag
-    for k in range(1, len(way)):
-        x0, x1 = min(x0, way[k].real), max(x1, way[k].real)
-        y0, y1 = min(y0, way[k].imag), max(y1, way[k].imag)
+    x0, x1, y0, y1 = _box(way)
     x0, x1, y0, y1 = x0 - grow_m, x1 + grow_m, y0 - grow_m, y1 + grow_m
     out = np.empty(len(rows), dtype=np.int64)
     same = np.empty(len(rows), dtype=np.bool_)

@@ -178,6 +178,65 @@ def workers_by_way(
 
 
 @numba.njit(cache=True, nogil=True)
+def workers_near(
+    z: np.ndarray,
+    work: np.ndarray,
+    changed: np.ndarray,
+    reach_m: float,
+    close_m: float,
+    boxes: np.ndarray,
+    grow_m: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The robots at work (``work``, at ``z``) within ``reach_m`` of one of the robots
+    ``changed``, in order; for each, the other robots at work within ``close_m`` of it
+    (farther than 1e-9 m, in order) and the shapes whose box (``boxes``: x0, y0, x1, y1) lies
+    within ``grow_m`` of it in x and in y (``PassageMap.update_workers``' neighbours).
+
+    Returns (rows, others_at, others, shapes_at, shapes): row n's others are
+    ``others[others_at[n]:others_at[n + 1]]`` (x + iy), its shapes likewise."""
+    m = len(z)
+    at = np.nonzero(work)[0]
+    rows = np.empty(m, dtype=np.int64)
+    n = 0
+    for i in at:
+        for c in changed:
+            d = z[i] - z[c]
+            if modulus(d.real, d.imag) < reach_m:
+                rows[n] = i
+                n += 1
+                break
+    rows = rows[:n]
+    others_at = np.zeros(n + 1, dtype=np.int64)
+    shapes_at = np.zeros(n + 1, dtype=np.int64)
+    for count in range(2):  # count, then fill
+        others = np.empty(others_at[n], dtype=np.complex128)
+        shapes = np.empty(shapes_at[n], dtype=np.int64)
+        k = s = 0
+        for r in range(n):
+            zw = z[rows[r]]
+            for a in at:
+                d = zw - z[a]
+                gap = modulus(d.real, d.imag)
+                if gap < close_m and gap > 1e-9:
+                    if count:
+                        others[k] = z[a]
+                    k += 1
+            x, y = zw.real, zw.imag
+            for b in range(boxes.shape[0]):
+                if (
+                    boxes[b, 0] <= x + grow_m
+                    and boxes[b, 2] >= x - grow_m
+                    and boxes[b, 1] <= y + grow_m
+                    and boxes[b, 3] >= y - grow_m
+                ):
+                    if count:
+                        shapes[s] = b
+                    s += 1
+            others_at[r + 1], shapes_at[r + 1] = k, s
+    return rows, others_at, others, shapes_at, shapes
+
+
+@numba.njit(cache=True, nogil=True)
 def way_gaps(points: np.ndarray, z: np.ndarray, paths: np.ndarray, index: np.ndarray) -> np.ndarray:
     """(R,) distance from the nearest of ``points`` to each robot's way ahead: from where it is
     (``z[r]``) to the waypoint it aims at (``paths[r, index[r]]``), then along its path's

@@ -16,7 +16,7 @@ import numpy as np
 
 from sim.scenario import SpatialSpec
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.plane import near_box
+from sim.spatial.plane import near_box, workers_near
 from sim.spatial.traffic.annotate import Chain, Crossing, hold_points, left_along
 from sim.spatial.traffic.geometry import as_complex, to_segments, walls
 from sim.spatial.traffic.passages import (
@@ -31,7 +31,6 @@ LANE_OUT_M = 2.0  # a holding point keeps a pass off this much of the lane out o
 HOLD_STEP_M = 0.25  # holding points are looked for every this much farther back, m
 NEAR_RINGS = (1.0, 1.5, 2.0, 3.0)  # spot_near's rings round the robot, in passes
 NEAR_POINTS = 16  # points on each ring
-BLOCK = 256  # update_workers remakes the passages of this many robots at work at a time
 
 
 class PassageMap:
@@ -71,8 +70,9 @@ class PassageMap:
         self.passages: dict[int, Passage] = dict(enumerate(static))
         self.shapes = [as_complex(p) for p in spatial.obstacles] + walls(w, h)
         self.boxes = np.array(
-            [[s.real.min(), s.imag.min(), s.real.max(), s.imag.max()] for s in self.shapes]
-        )
+            [[s.real.min(), s.imag.min(), s.real.max(), s.imag.max()] for s in self.shapes],
+            dtype=float,
+        ).reshape(-1, 4)
         self.room_: dict[tuple[int, int, int, int], bool] = {}  # room_between, static pairs
         self.version_ = 0  # counts the changes of ``passages`` (update_workers)
         self.table_: tuple = (-1,)  # _near_box's arrays of them, and the version they hold
@@ -126,14 +126,11 @@ class PassageMap:
         way = np.ascontiguousarray(way, dtype=complex)
         return [items[k] for k in near_box(way, cx, cy, reach).tolist()]
 
-    def update_workers(
-        self, changed: np.ndarray, work: np.ndarray, z: np.ndarray, block: int = BLOCK
-    ) -> tuple:
+    def update_workers(self, changed: np.ndarray, work: np.ndarray, z: np.ndarray) -> tuple:
         """Robots ``changed`` began or ended work (``work``: who works now, at ``z``): their
         temporary passages, and those of the robots at work near them (their room depends on
-        each other), are made again, ``block`` robots at a time (the result does not depend
-        on it). Returns the keys dropped, the number of new passages and the robots whose
-        passage came, went or changed."""
+        each other), are made again. Returns the keys dropped, the number of new passages and
+        the robots whose passage came, went or changed."""
         r = self.radius_m
         self.version_ += 1  # the passages may change: _near_box's table is built again
         dropped, touched = [], []
@@ -145,45 +142,40 @@ class PassageMap:
         if not work.any() or not len(changed):
             return dropped, made, np.array(touched, dtype=int)
         reach = 2.0 * (self.passage_m + 2.0 * r)
-        near = work & (np.abs(z[:, None] - z[changed][None, :]) < reach).any(axis=1)
         # a robot at work farther than this is neither the nearest shape within passage_m of
         # w's body nor the first one within passage_m on either side of it (bodies are
         # disc_polygon's octagons, corners r / cos(pi / 8) out): it cannot change w's passage
         counts_m = self.passage_m + 2.0 * r / np.cos(np.pi / 8) + 1e-9
-        near, at_work = near.nonzero()[0], z[work]
-        for start in range(0, len(near), block):  # in blocks: the temporaries stay small
-            rows = near[start : start + block]
-            within = np.abs(z[rows][:, None] - at_work[None, :]) < min(reach, counts_m)
-            boxes = self._boxes_near(z[rows])
-            for w, close, box in zip(rows.tolist(), within, boxes, strict=True):
-                key = self.n_static + w
-                was = self.passages.pop(key, None)
-                others = at_work[close]
-                others = others[np.abs(others - z[w]) > 1e-9]
-                shapes = [self.shapes[k] for k in np.flatnonzero(box).tolist()]
-                zw, lane = complex(z[w]), self.lane_m
-                p = worker_passage(w, zw, r, shapes, others, self.passage_m, lane)
-                if p is not None and len(others):
-                    alone = worker_passage(w, zw, r, shapes, others[:0], self.passage_m, 0)
-                    p = dataclasses.replace(p, by_walls=alone is not None)
-                if p is not None:
-                    self.passages[key] = p
-                    made += was is None
-                elif was is not None:
-                    dropped.append(key)
-                if p != was and w not in touched:
-                    touched.append(w)
+        # those near, the robots at work that count for each and the obstacles and walls
+        # within two lanes and a radius of it (by their bounding boxes)
+        rows, others_at, others, shapes_at, shapes = workers_near(
+            np.ascontiguousarray(z, dtype=complex),
+            np.ascontiguousarray(work, dtype=bool),
+            np.ascontiguousarray(changed, dtype=np.int64),
+            reach,
+            min(reach, counts_m),
+            self.boxes,
+            self.passage_m + r,
+        )
+        lane = self.lane_m
+        for n, w in enumerate(rows.tolist()):
+            key = self.n_static + w
+            was = self.passages.pop(key, None)
+            near = others[others_at[n] : others_at[n + 1]]
+            mine = [self.shapes[k] for k in shapes[shapes_at[n] : shapes_at[n + 1]].tolist()]
+            zw = complex(z[w])
+            p = worker_passage(w, zw, r, mine, near, self.passage_m, lane)
+            if p is not None and len(near):
+                alone = worker_passage(w, zw, r, mine, near[:0], self.passage_m, 0)
+                p = dataclasses.replace(p, by_walls=alone is not None)
+            if p is not None:
+                self.passages[key] = p
+                made += was is None
+            elif was is not None:
+                dropped.append(key)
+            if p != was and w not in touched:
+                touched.append(w)
         return dropped, made, np.array(touched, dtype=int)
-
-    def _boxes_near(self, z: np.ndarray) -> np.ndarray:
-        """(len(z), shapes) whether each obstacle and wall lies within two lanes and a radius
-        of each point of z (by its bounding box)."""
-        d = self.passage_m + self.radius_m
-        b = self.boxes
-        x, y = z.real[:, None], z.imag[:, None]
-        keep = (b[:, 0] <= x + d) & (b[:, 2] >= x - d)
-        keep &= (b[:, 1] <= y + d) & (b[:, 3] >= y - d)
-        return keep
 
     # -- holding --------------------------------------------------------------------------
     def open_spot(self, spot: complex, to_left: complex, key: int, direction: int) -> bool:

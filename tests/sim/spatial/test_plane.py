@@ -117,6 +117,24 @@ def np_workers_by_way(rows, z, way, grow_m, service, j):
     return rows, ~(np.abs(service[rows] - service[j]) > 1e-6)
 
 
+def np_workers_near(z, work, changed, reach, close_m, boxes, grow_m):
+    near = work & (np.abs(z[:, None] - z[changed][None, :]) < reach).any(axis=1)
+    rows, at_work = near.nonzero()[0], z[work]
+    within = np.abs(z[rows][:, None] - at_work[None, :]) < close_m
+    x, y = z[rows].real[:, None], z[rows].imag[:, None]
+    keep = (boxes[:, 0] <= x + grow_m) & (boxes[:, 2] >= x - grow_m)
+    keep &= (boxes[:, 1] <= y + grow_m) & (boxes[:, 3] >= y - grow_m)
+    others, shapes = [], []
+    for w, close, box in zip(rows.tolist(), within, keep, strict=True):
+        o = at_work[close]
+        others.append(o[np.abs(o - z[w]) > 1e-9])
+        shapes.append(np.flatnonzero(box))
+    others_at = np.cumsum([0] + [len(o) for o in others])
+    shapes_at = np.cumsum([0] + [len(b) for b in shapes])
+    flat = [np.concatenate(part) if part else np.zeros(0) for part in (others, shapes)]
+    return rows, others_at, flat[0], shapes_at, flat[1]
+
+
 def np_near_box(way, cx, cy, reach):
     lo = complex(way.real.min(), way.imag.min())
     hi = complex(way.real.max(), way.imag.max())
@@ -254,6 +272,18 @@ def all_cases(seed: int):
         cy = rng.integers(0, 7, k) + rng.normal(0, 0.3, k) * (m % 2)
         reach = rng.choice([0.5, 1.0, 1.3], k)
         yield "near_box", plane.near_box(way, cx, cy, reach), np_near_box(way, cx, cy, reach)
+        work = rng.random(m) < 0.6  # robots at work near those that changed, on the grid too
+        changed = np.flatnonzero(rng.random(m) < 0.2)
+        x0, y0 = rng.integers(0, 7, (2, k)) / 2
+        boxes = np.column_stack([x0, y0, x0 + rng.integers(1, 4, k) / 2, y0 + 0.5])
+        reach = float(rng.choice([1.0, 2.0]))
+        args = (z, work, changed, reach, min(reach, float(rng.choice([1.0, 1.5]))), boxes, 0.5)
+        got, want = plane.workers_near(*args), np_workers_near(*args)
+        yield (
+            "workers_near",
+            np.concatenate(got, dtype=complex),
+            np.concatenate(want, dtype=complex),
+        )
 
 
 def place_cases(rng: np.random.Generator, grid: bool):
@@ -325,6 +355,7 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "free_place_grid": 200,
         "workers_by_way": 200,
         "near_box": 200,
+        "workers_near": 200,
     }
 
 

@@ -97,6 +97,7 @@ def event_kernels() -> tuple:
         plane.path_gaps,
         plane.way_gaps,
         plane.workers_by_way,
+        plane.workers_near,
         plane.near_box,
         plane.way_waits,
         plane.free_place,
@@ -165,6 +166,7 @@ def warm_events() -> None:
     plane.way_gaps(z, z, np.tile(z, (4, 1)), four)
     plane.workers_by_way(four, z, z, 0.5, z, 0)
     plane.near_box(z, np.zeros(4), np.zeros(4), np.ones(4))
+    plane.workers_near(z, mask, four, 1.0, 0.5, np.zeros((1, 4)), 0.5)
     ends = np.zeros(4)
     plane.way_waits(z[None], one, one, np.zeros((1, 4)), z[:1], z[:1], z, z, ends, 0.0, 1.0, 0.7)
     plane.free_place(z, 0j, z, mask, z, mask, 1.0, 0.5, 0j)

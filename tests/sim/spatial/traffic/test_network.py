@@ -7,12 +7,11 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import pytest
 
 from scenarios.loader import load_scenario
 from sim.spatial.navigation.planning import GridPlanner
 from sim.spatial.traffic.annotate import crossings
-from sim.spatial.traffic.network import BLOCK, PassageMap
+from sim.spatial.traffic.network import PassageMap
 from sim.spatial.traffic.passages import worker_passage
 
 
@@ -67,12 +66,11 @@ def test_ways_get_the_same_passages_with_the_box_first_as_robots_begin_and_end_w
     assert seen_temporary > 20 and compared == 360 and found > 50
 
 
-@pytest.mark.parametrize("block", [3, BLOCK])
-def test_temporary_passages_kept_up_to_date_equal_those_made_afresh(block):
+def test_temporary_passages_kept_up_to_date_equal_those_made_afresh():
     """After every round of robots beginning and ending work, the temporary passages
-    ``update_workers`` keeps (only the robots near those that changed are made again, in
-    blocks of ``BLOCK``) equal those made for every robot at work from scratch, one by one: a
-    passage of its own body against the obstacles near it and the robots at work beside it."""
+    ``update_workers`` keeps (only the robots near those that changed are made again) equal
+    those made for every robot at work from scratch, one by one: a passage of its own body
+    against the obstacles near it and the robots at work beside it."""
     spatial = load_scenario("warehouse").spatial
     planner = GridPlanner(spatial)
     pmap = PassageMap(spatial, spatial.drive.radius_m, planner)
@@ -93,7 +91,7 @@ def test_temporary_passages_kept_up_to_date_equal_those_made_afresh(block):
         begin = changed[~work[changed]]  # these come to a new place; the others end there
         z[begin] = free[rng.integers(0, len(free), len(begin))]
         work[changed] = ~work[changed]
-        pmap.update_workers(changed, work, z, block)
+        pmap.update_workers(changed, work, z)
         afresh = {}
         for k in work.nonzero()[0].tolist():
             d = pmap.passage_m + r

@@ -237,6 +237,66 @@ def workers_near(
 
 
 @numba.njit(cache=True, nogil=True)
+def coming_to(
+    state: np.ndarray,
+    driving: int,
+    service: np.ndarray,
+    z: np.ndarray,
+    site: complex,
+    within_m: float,
+) -> tuple[np.ndarray, bool]:
+    """(m,) the robots in state ``driving`` whose service point is ``site`` (within 1e-6 m)
+    and that are within ``within_m`` of it, and whether there is one (``Sites.leave``)."""
+    out = np.zeros(len(z), dtype=np.bool_)
+    anyone = False
+    for i in range(len(z)):
+        if state[i] != driving:
+            continue
+        d = service[i] - site
+        if not modulus(d.real, d.imag) < 1e-6:
+            continue
+        d = z[i] - site
+        if modulus(d.real, d.imag) < within_m:
+            out[i] = anyone = True
+    return out, anyone
+
+
+@numba.njit(cache=True, nogil=True)
+def exit_clearances(
+    z: complex,
+    ends: np.ndarray,
+    zs: np.ndarray,
+    j: int,
+    within_m: float,
+    coming: np.ndarray,
+    admitted: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """How close the robots within ``within_m`` of ``z`` (at ``zs``, robot j not counted) come
+    to each segment from ``z`` to one of ``ends``, and how close those of them ``coming`` and
+    ``admitted`` come, m (inf without any): ``Sites.clearance`` of each group."""
+    clear = np.full(len(ends), math.inf)
+    clear_in = np.full(len(ends), math.inf)
+    for i in range(len(zs)):
+        d = zs[i] - z
+        if i == j or not modulus(d.real, d.imag) < within_m:
+            continue
+        both = coming[i] and admitted[i]
+        ar, ai = zs[i].real - z.real, zs[i].imag - z.imag
+        for k in range(len(ends)):
+            sr, si = ends[k].real - z.real, ends[k].imag - z.imag
+            seg_m = modulus(sr, si)
+            frac = clip01((ar * sr - ai * -si) / (seg_m * seg_m))
+            near_r = z.real + (frac * sr - 0.0 * si)
+            near_i = z.imag + (frac * si + 0.0 * sr)
+            gap = modulus(zs[i].real - near_r, zs[i].imag - near_i)
+            if gap < clear[k]:
+                clear[k] = gap
+            if both and gap < clear_in[k]:
+                clear_in[k] = gap
+    return clear, clear_in
+
+
+@numba.njit(cache=True, nogil=True)
 def way_gaps(points: np.ndarray, z: np.ndarray, paths: np.ndarray, index: np.ndarray) -> np.ndarray:
     """(R,) distance from the nearest of ``points`` to each robot's way ahead: from where it is
     (``z[r]``) to the waypoint it aims at (``paths[r, index[r]]``), then along its path's

@@ -23,7 +23,7 @@ from sim.spatial.fleet import FleetState, Schedule
 from sim.spatial.law.drive import next_check_s
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.plane import free_place
+from sim.spatial.plane import coming_to, exit_clearances, free_place
 from sim.states import DRIVING, IDLE, WORKING
 
 _TURNS = np.radians(np.arange(-150, 151, 30))  # a robot leaving a site: the ways out it tries,
@@ -313,22 +313,24 @@ class Sites:
         site = self.service[j] if site is None else site
         if abs(z - site) >= self.rules.queue_m or self.broken[j]:
             return False
-        coming = (f.state == DRIVING) & (np.abs(self.service - site) < 1e-6)
-        coming &= np.abs(f.last_z_m - site) < self.rules.queue_m + self.rules.exit_m
-        if not coming.any():
+        out_m = self.rules.queue_m + self.rules.exit_m
+        coming, anyone = coming_to(f.state, DRIVING, self.service, f.last_z_m, site, out_m)
+        if not anyone:
             return False
         away = z - site
         if abs(away) < 1e-3:
             away = -np.exp(1j * self.bodies[j].angle)
         away /= abs(away)
-        ends = site + (self.rules.queue_m + self.rules.exit_m) * away * TURNED
+        ends = site + out_m * away * TURNED
         ok = self.planner.free(np.column_stack([ends.real, ends.imag]))
-        # the straight way out that passes farthest from the robots around (ties: least turned)
-        around = np.abs(f.last_z_m - z) < self.rules.queue_m + self.rules.exit_m
-        around[j] = False
-        clear = self.clearance(z, ends, f.last_z_m[around])
-        # ... and never straight at a robot driving in (let in, not holding): both would stop
-        ok &= self.clearance(z, ends, f.last_z_m[around & coming & self.admitted]) >= self.reach_m
+        # the straight way out that passes farthest from the robots around (ties: least
+        # turned), and never straight at a robot driving in (let in, not holding): both would
+        # stop (the clearances of :meth:`clearance`, of the robots around and of those of them
+        # coming in, computed together)
+        clear, clear_in = exit_clearances(
+            complex(z), ends, f.last_z_m, j, out_m, coming, self.admitted
+        )
+        ok &= clear_in >= self.reach_m
         order = np.lexsort((TURNS_ABS, -np.minimum(clear, 2.0 * self.reach_m)))
         for k in order[ok[order]].tolist():
             path = self.planner.path((z.real, z.imag), (ends[k].real, ends[k].imag))

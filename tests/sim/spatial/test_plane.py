@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from sim.spatial import plane
+from sim.spatial.sites import Sites
 from sim.spatial.traffic.geometry import TOL_M, clip_line, disc_polygon, path_gaps, polygon_gap
 from sim.spatial.traffic.geometry import to_segments as np_to_segments
 from tests.golden.cases import in_baseline_child
@@ -133,6 +134,19 @@ def np_workers_near(z, work, changed, reach, close_m, boxes, grow_m):
     shapes_at = np.cumsum([0] + [len(b) for b in shapes])
     flat = [np.concatenate(part) if part else np.zeros(0) for part in (others, shapes)]
     return rows, others_at, flat[0], shapes_at, flat[1]
+
+
+def np_coming_to(state, driving, service, z, site, within_m):
+    coming = (state == driving) & (np.abs(service - site) < 1e-6)
+    coming &= np.abs(z - site) < within_m
+    return coming, coming.any()
+
+
+def np_exit_clearances(z, ends, zs, j, within_m, coming, admitted):
+    around = np.abs(zs - z) < within_m
+    around[j] = False
+    both = around & coming & admitted
+    return Sites.clearance(z, ends, zs[around]), Sites.clearance(z, ends, zs[both])
 
 
 def np_near_box(way, cx, cy, reach):
@@ -284,6 +298,25 @@ def all_cases(seed: int):
             np.concatenate(got, dtype=complex),
             np.concatenate(want, dtype=complex),
         )
+        site = complex(rng.integers(0, 7), rng.integers(0, 7))  # a site others come to
+        state = np.where(rng.random(m) < 0.7, 1, rng.integers(0, 3, m)).astype(np.int8)
+        args = (state, 1, service, z, complex(service[0]) if m % 3 else site, reach)
+        (got, anyone), (want, want_any) = plane.coming_to(*args), np_coming_to(*args)
+        yield "coming_to", np.append(got, anyone), np.append(want, want_any)
+        j = int(rng.integers(m))  # a robot leaving: its exits' clearances from the others
+        away = np.exp(1j * rng.choice([0.0, 0.5 * np.pi, rng.uniform(0, 2 * np.pi)]))
+        ends = z[j] + 1.5 * away * np.exp(1j * np.radians(np.arange(-150, 151, 30)))
+        ends[0] = z[j] + 1.5 * rng.choice([1, -1, 1j, -1j])  # towards a grid point
+        args = (complex(z[j]), ends, z, j, reach, work, changed_mask(m, changed))
+        got, want = plane.exit_clearances(*args), np_exit_clearances(*args)
+        yield "exit_clearances", np.concatenate(got), np.concatenate(want)
+
+
+def changed_mask(m: int, rows: np.ndarray) -> np.ndarray:
+    """(m,) True at ``rows``."""
+    out = np.zeros(m, dtype=bool)
+    out[rows] = True
+    return out
 
 
 def place_cases(rng: np.random.Generator, grid: bool):
@@ -356,6 +389,8 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "workers_by_way": 200,
         "near_box": 200,
         "workers_near": 200,
+        "coming_to": 200,
+        "exit_clearances": 200,
     }
 
 

@@ -101,6 +101,8 @@ def event_kernels() -> tuple:
         plane.near_box,
         plane.way_waits,
         plane.free_place,
+        plane.coming_to,
+        plane.exit_clearances,
     )
 
 
@@ -170,6 +172,8 @@ def warm_events() -> None:
     ends = np.zeros(4)
     plane.way_waits(z[None], one, one, np.zeros((1, 4)), z[:1], z[:1], z, z, ends, 0.0, 1.0, 0.7)
     plane.free_place(z, 0j, z, mask, z, mask, 1.0, 0.5, 0j)
+    plane.coming_to(np.ones(4, dtype=np.int8), 1, z, z, 0j, 1.0)
+    plane.exit_clearances(0j, z, z, 0, 1.0, mask, mask)
 
 
 def warm_up() -> None:

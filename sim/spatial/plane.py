@@ -297,24 +297,42 @@ def exit_clearances(
 
 
 @numba.njit(cache=True, nogil=True)
-def way_gaps(points: np.ndarray, z: np.ndarray, paths: np.ndarray, index: np.ndarray) -> np.ndarray:
-    """(R,) distance from the nearest of ``points`` to each robot's way ahead: from where it is
-    (``z[r]``) to the waypoint it aims at (``paths[r, index[r]]``), then along its path's
-    segments from there to the end of the (R, P) array ``paths``, m."""
-    rows, width = paths.shape
-    out = np.full(rows, math.inf)
-    for r in range(rows):
-        aim = paths[r, index[r]]
-        best = math.inf
+def ways_near(
+    points: np.ndarray,
+    reach_m: float,
+    rows: np.ndarray,
+    z: np.ndarray,
+    paths: np.ndarray,
+    index: np.ndarray,
+) -> np.ndarray:
+    """(len(rows),) whether one of ``points`` lies nearer than ``reach_m`` to the way ahead of
+    each robot ``rows``: from where it is (``z[r]``) to the waypoint it aims at
+    (``paths[r, index[r]]``), then along its path's segments to the end of the row of the
+    (m, P) array ``paths``. Each row stops at the first such point and segment; a segment
+    whose box lies farther than the reach from a point is not measured."""
+    width = paths.shape[1]
+    out = np.zeros(len(rows), dtype=np.bool_)
+    far = reach_m + 1e-9  # a segment whose box is this far from a point in x or y is too far
+    for n in range(len(rows)):
+        r = rows[n]
         for i in range(len(points)):
-            d, _ = _to_segment(points[i], z[r], aim)
-            if d < best:
-                best = d
-            for k in range(index[r], width - 1):
-                d, _ = _to_segment(points[i], paths[r, k], paths[r, k + 1])
-                if d < best:
-                    best = d
-        out[r] = best
+            p = points[i]
+            for k in range(index[r] - 1, width - 1):
+                a = z[r] if k < index[r] else paths[r, k]
+                b = paths[r, k + 1]
+                if (
+                    p.real < min(a.real, b.real) - far
+                    or p.real > max(a.real, b.real) + far
+                    or p.imag < min(a.imag, b.imag) - far
+                    or p.imag > max(a.imag, b.imag) + far
+                ):
+                    continue
+                d, _ = _to_segment(p, a, b)
+                if d < reach_m:
+                    out[n] = True
+                    break
+            if out[n]:
+                break
     return out
 
 

@@ -27,7 +27,7 @@ from sim.spatial.controller import DiffDriveController
 from sim.spatial.fleet import FleetState
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.plane import way_gaps, workers_by_way
+from sim.spatial.plane import ways_near, workers_by_way
 from sim.spatial.sites import Sites
 from sim.spatial.traffic.annotate import Chain, chains, crossings, left_along
 from sim.spatial.traffic.geometry import path_gaps
@@ -200,25 +200,20 @@ class Traffic:
         may lie there; the robots that began work, within a pass, as a way may go round them),
         or a chain ahead of them holds a passage ``dropped``."""
         out = np.zeros(len(drive), dtype=bool)
-        fol = self.follower
-        rows = (drive & (fol.last >= 0)).nonzero()[0]
+        fol, z = self.follower, self.fleet.last_z_m
+        ways = drive & (fol.last >= 0)
+        rows = ways.nonzero()[0]
         if not len(rows):
             return out
         for points, reach in spots:
             if len(points):
-                out[rows[self._way_gap(rows, points) < reach]] = True
-        if dropped:
-            for j in rows.tolist():
-                if any(c.keys & dropped for c in self.chains[j]):
+                points = np.ascontiguousarray(points, dtype=complex)
+                out[rows[ways_near(points, reach, rows, z, fol.points, fol.index)]] = True
+        if dropped:  # (a robot with a chain ahead is in ``chained``)
+            for j in self.chained:
+                if ways[j] and any(c.keys & dropped for c in self.chains[j]):
                     out[j] = True
         return out
-
-    def _way_gap(self, rows: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """(len(rows),) distance from the nearest of ``points`` to each robot's way ahead: from
-        where it is to the waypoint it aims at, then along its path, m."""
-        fol = self.follower
-        points = np.ascontiguousarray(points, dtype=complex)
-        return way_gaps(points, self.fleet.last_z_m[rows], fol.points[rows], fol.index[rows])
 
     def _new_paths(self, few: int = FEW_ROWS) -> list[int]:
         """The robots whose path is not the one they were last annotated on (first and last

@@ -254,7 +254,11 @@ def all_cases(seed: int):
         yield "path_gaps", path_gaps(points, path), np_path_gaps(points, path)
         pts, idx = paths(rng, int(rng.integers(1, 9)), width)
         z = rng.uniform(0, 6, len(pts)) + 1j * rng.uniform(0, 6, len(pts))
-        yield "way_gaps", plane.way_gaps(points, z, pts, idx), np_way_gaps(points, z, pts, idx)
+        gaps = np_way_gaps(points, z, pts, idx)
+        rows = np.flatnonzero(rng.random(len(pts)) < 0.7)
+        for name, reach in (("ways_near", rng.uniform(0, 3)), ("ways_near_tie", rng.choice(gaps))):
+            got = plane.ways_near(points, float(reach), rows, z, pts, idx)
+            yield name, got, (gaps < reach)[rows]  # _tie: a reach equal to one of the gaps
         for name, grid in (("free_place", False), ("free_place_grid", True)):
             got, want = place_cases(rng, grid)
             yield name, got, want
@@ -360,12 +364,13 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
     """With this CPU's numpy kernels (fused or not): every answer within 1e-12 m, the same
     touch (0) or miss (inf) where numpy has one; two polygons' nearest points may be another
     pair of a tie (parallel edges), as far apart as the gap. Ways on a grid, where a robot at
-    work is often equally near two segments, are held to numpy's answers in the child only."""
+    work is often equally near two segments, and reaches equal to a way's gap are held to
+    numpy's answers in the child only."""
     counts: dict[str, int] = {}
     for name, got, want in all_cases(seed):
         counts[name] = counts.get(name, 0) + 1
-        if name.endswith("_grid"):
-            continue  # equal gaps to two segments: rounding may pick the other one here
+        if name.endswith(("_grid", "_tie")):
+            continue  # equal gaps (to two segments, or to the reach): rounding may differ here
         if name == "polygon_gap" and want[0] > 0:  # parallel edges tie: any nearest pair
             gap, p, q = got
             assert gap == pytest.approx(want[0], abs=1e-12)
@@ -381,7 +386,8 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "polygon_gap": 3600,
         "clip_line": 12000,
         "path_gaps": 200,
-        "way_gaps": 200,
+        "ways_near": 200,
+        "ways_near_tie": 200,
         "way_waits": 200,
         "way_waits_grid": 200,
         "free_place": 200,
@@ -433,16 +439,19 @@ def test_polygon_gap_and_clip_line_on_squares():
     assert lo > hi  # parallel to the top edge, above it: missed
 
 
-def test_path_gaps_and_way_gaps_measure_from_the_way_ahead_only():
+def test_path_gaps_and_ways_near_measure_from_the_way_ahead_only():
     path = np.array([0, 4, 4 + 4j])
     assert path_gaps(np.array([2 + 1j, 5 + 2j, 2 + 1j]), path).tolist() == [1.0, 1.0, 1.0]
     assert path_gaps(np.array([1j]), path[:1]).tolist() == [np.inf]
-    pts = np.array([[0, 4, 4 + 4j]])
-    point = np.array([2 - 1j])  # 1 m beside the first segment
-    behind = plane.way_gaps(point, np.array([4 + 1j]), pts, np.array([2]))
-    assert behind[0] == pytest.approx(abs(2 - 1j - (4 + 1j)))  # the first is behind
-    ahead = plane.way_gaps(point, np.array([0j]), pts, np.array([1]))
-    assert ahead[0] == pytest.approx(1.0)
+    pts = np.array([[0, 4, 4 + 4j], [0, 4, 4 + 4j]])
+    z, idx = np.array([4 + 1j, 0j]), np.array([2, 1])  # robot 0 is past the first segment
+    point = np.array([2 - 1j])  # 1 m beside the first segment, 8 ** 0.5 m from robot 0
+    rows = np.array([0, 1])
+    assert plane.ways_near(point, 1.0, rows, z, pts, idx).tolist() == [False, False]
+    assert plane.ways_near(point, 1.0 + 1e-9, rows, z, pts, idx).tolist() == [False, True]
+    assert plane.ways_near(point, 2.83, rows, z, pts, idx).tolist() == [True, True]
+    assert plane.ways_near(point, 2.83, rows[1:], z, pts, idx).tolist() == [True]
+    assert plane.ways_near(point[:0], 9.0, rows, z, pts, idx).tolist() == [False, False]
 
 
 if __name__ == "__main__":  # pragma: no cover - the child of the bit-for-bit test

@@ -95,7 +95,7 @@ def event_kernels() -> tuple:
         plane.polygon_gap,
         plane.clip_line,
         plane.path_gaps,
-        plane.way_gaps,
+        plane.ways_near,
         plane.workers_by_way,
         plane.workers_near,
         plane.near_box,
@@ -165,7 +165,7 @@ def warm_events() -> None:
     plane.polygon_gap(z, z + 3)
     plane.clip_line(0.5j, 1 + 0j, z)
     plane.path_gaps(z, z)
-    plane.way_gaps(z, z, np.tile(z, (4, 1)), four)
+    plane.ways_near(z, 1.0, four, z, np.tile(z, (4, 1)), four)
     plane.workers_by_way(four, z, z, 0.5, z, 0)
     plane.near_box(z, np.zeros(4), np.zeros(4), np.ones(4))
     plane.workers_near(z, mask, four, 1.0, 0.5, np.zeros((1, 4)), 0.5)

@@ -297,6 +297,30 @@ def exit_clearances(
 
 
 @numba.njit(cache=True, nogil=True)
+def near_sites(
+    z: np.ndarray, rows: np.ndarray, sites: np.ndarray, reach_m: float, first: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs (n, k) of a robot ``rows[n]`` (at ``z``) within ``reach_m`` of ``sites[k]``,
+    by n and then k (``Sites.clear_loiterers``); with ``first``, only the first of them."""
+    count = 0
+    for step in range(2):  # count, then fill
+        robot = np.empty(count, dtype=np.int64)
+        site = np.empty(count, dtype=np.int64)
+        count = 0
+        for n in range(len(rows)):
+            zr = z[rows[n]]
+            for k in range(len(sites)):
+                d = zr - sites[k]
+                if modulus(d.real, d.imag) < reach_m:
+                    if step:
+                        robot[count], site[count] = n, k
+                    elif first:
+                        return np.full(1, n), np.full(1, k)
+                    count += 1
+    return robot, site
+
+
+@numba.njit(cache=True, nogil=True)
 def ways_near(
     points: np.ndarray,
     reach_m: float,

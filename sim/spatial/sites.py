@@ -23,7 +23,7 @@ from sim.spatial.fleet import FleetState, Schedule
 from sim.spatial.law.drive import next_check_s
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.plane import coming_to, exit_clearances, free_place
+from sim.spatial.plane import coming_to, exit_clearances, free_place, near_sites
 from sim.states import DRIVING, IDLE, WORKING
 
 _TURNS = np.radians(np.arange(-150, 151, 30))  # a robot leaving a site: the ways out it tries,
@@ -285,15 +285,13 @@ class Sites:
         idle = (f.state == IDLE) & ~(f.yielding | self.broken)
         if not (idle.any() and coming.any()):
             return
-        z = f.last_z_m[idle]
-        if not (np.abs(z[:, None] - self.service[coming][None, :]) < self.rules.queue_m).any():
+        rows, reach = idle.nonzero()[0], self.rules.queue_m
+        if not len(near_sites(f.last_z_m, rows, self.service[coming], reach, True)[0]):
             return  # no idle robot near such a site (the usual case): the test below, shorter
         sites = np.unique(self.service[coming])
-        near = np.abs(z[:, None] - sites[None, :]) < self.rules.queue_m
+        near, at = near_sites(f.last_z_m, rows, sites, reach, False)
         moved = False
-        rows = idle.nonzero()[0].tolist()
-        for i, k in zip(*near.nonzero(), strict=True):
-            j = rows[i]
+        for j, k in zip(rows[near].tolist(), at.tolist(), strict=True):
             if not f.yielding[j]:
                 moved |= self.leave(j, t, complex(sites[k]))
         if moved:

@@ -149,6 +149,10 @@ def np_exit_clearances(z, ends, zs, j, within_m, coming, admitted):
     return Sites.clearance(z, ends, zs[around]), Sites.clearance(z, ends, zs[both])
 
 
+def np_near_sites(z, rows, sites, reach_m):
+    return (np.abs(z[rows][:, None] - sites[None, :]) < reach_m).nonzero()
+
+
 def np_near_box(way, cx, cy, reach):
     lo = complex(way.real.min(), way.imag.min())
     hi = complex(way.real.max(), way.imag.max())
@@ -314,6 +318,16 @@ def all_cases(seed: int):
         args = (complex(z[j]), ends, z, j, reach, work, changed_mask(m, changed))
         got, want = plane.exit_clearances(*args), np_exit_clearances(*args)
         yield "exit_clearances", np.concatenate(got), np.concatenate(want)
+        sites = np.unique(service[rng.random(m) < 0.5])  # idle robots near sites come to
+        args = (z, np.flatnonzero(rng.random(m) < 0.6), sites, reach)
+        got, want = plane.near_sites(*args, False), np_near_sites(*args)
+        yield "near_sites", np.concatenate(got), np.concatenate(want)
+        first = [part[:1] for part in want]  # the first pair, if any
+        yield (
+            "near_sites_first",
+            np.concatenate(plane.near_sites(*args, True)),
+            np.concatenate(first),
+        )
 
 
 def changed_mask(m: int, rows: np.ndarray) -> np.ndarray:
@@ -397,6 +411,8 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "workers_near": 200,
         "coming_to": 200,
         "exit_clearances": 200,
+        "near_sites": 200,
+        "near_sites_first": 200,
     }
 
 

@@ -103,6 +103,7 @@ def event_kernels() -> tuple:
         plane.free_place,
         plane.coming_to,
         plane.exit_clearances,
+        plane.near_sites,
     )
 
 
@@ -174,6 +175,7 @@ def warm_events() -> None:
     plane.free_place(z, 0j, z, mask, z, mask, 1.0, 0.5, 0j)
     plane.coming_to(np.ones(4, dtype=np.int8), 1, z, z, 0j, 1.0)
     plane.exit_clearances(0j, z, z, 0, 1.0, mask, mask)
+    plane.near_sites(z, four, z, 1.0, False)
 
 
 def warm_up() -> None:

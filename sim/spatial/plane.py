@@ -237,6 +237,66 @@ def workers_near(
 
 
 @numba.njit(cache=True, nogil=True)
+def queue_scan(
+    state: np.ndarray,
+    driving_code: int,
+    backoff_until_s: np.ndarray,
+    replan: np.ndarray,
+    blocked: np.ndarray,
+    held: np.ndarray,
+    z: np.ndarray,
+    service: np.ndarray,
+    admitted: np.ndarray,
+    holding: np.ndarray,
+    t: float,
+    queue_m: float,
+    crowd_m: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool, float]:
+    """``Sites.queue``'s look at the fleet, as the masks are when it is called. The robots
+    driving (state ``driving_code``, not backing off at ``t``, not replanning, waiting for a
+    repair (``blocked``) or ``held`` before a passage) and each robot's gap to its service
+    point, m; of the driving robots not let in (``admitted``), those within ``queue_m`` of
+    it or within ``crowd_m`` of a robot ``holding`` for the same service point (1e-6 m),
+    which ask now; the driving robots let in and near or holding, whose sites idle robots
+    clear; whether a driving robot is within ``queue_m``, and the least gap of the others
+    (inf without one)."""
+    m = len(z)
+    driving = np.zeros(m, dtype=np.bool_)
+    near = np.zeros(m, dtype=np.bool_)
+    coming = np.zeros(m, dtype=np.bool_)
+    gap = np.empty(m)
+    close_any, far = False, math.inf
+    for i in range(m):
+        d = z[i] - service[i]
+        gap[i] = modulus(d.real, d.imag)
+        if state[i] != driving_code or not backoff_until_s[i] <= t:
+            continue
+        if replan[i] or blocked[i] or held[i]:
+            continue
+        driving[i] = True
+        close = gap[i] < queue_m
+        if close:
+            close_any = True
+        elif gap[i] >= queue_m and gap[i] < far:
+            far = gap[i]
+        near[i] = close and not admitted[i]
+        coming[i] = (admitted[i] and close) or holding[i]
+    for i in range(m):  # in the crowd of a robot holding for the same site
+        if not driving[i] or admitted[i] or near[i]:
+            continue
+        for h in range(m):
+            if not holding[h]:
+                continue
+            d = service[i] - service[h]
+            if modulus(d.real, d.imag) < 1e-6:
+                d = z[i] - z[h]
+                if modulus(d.real, d.imag) < crowd_m:
+                    near[i] = True
+                    break
+    return driving, gap, near, coming, close_any, far
+
+
+@numba.njit(cache=True, nogil=True)
 def coming_to(
     state: np.ndarray,
     driving: int,

@@ -23,7 +23,13 @@ from sim.spatial.fleet import FleetState, Schedule
 from sim.spatial.law.drive import next_check_s
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
-from sim.spatial.plane import coming_to, exit_clearances, free_place, near_sites
+from sim.spatial.plane import (
+    coming_to,
+    exit_clearances,
+    free_place,
+    near_sites,
+    queue_scan,
+)
 from sim.states import DRIVING, IDLE, WORKING
 
 _TURNS = np.radians(np.arange(-150, 151, 30))  # a robot leaving a site: the ways out it tries,
@@ -159,50 +165,52 @@ class Sites:
         waiting) until a place is free. Holding does not use up a task's time: the deadline
         of a robot let in after holding moves on by the time it held, and while it holds it
         has ``hold_max_s`` more. Schedules the next check."""
-        z = self.fleet.last_z_m
-        driving = self._driving(t)
+        driving, gap, near, coming, close_any, far = self._scan(t)
         if not driving.any():
             self.queue_check_s = np.inf
             return
-        gap = np.abs(z - self.service)
-        close = gap < self.rules.queue_m
-        cand = driving & ~self.admitted
-        near = cand & close
-        held = self.holding.nonzero()[0]
-        if len(held):
-            rest = cand.nonzero()[0]
-            same = np.abs(self.service[rest, None] - self.service[held][None, :]) < 1e-6
-            crowd = same & (np.abs(z[rest, None] - z[held][None, :]) < self.rules.crowd_m)
-            near[rest[crowd.any(axis=1)]] = True
-        if (driving & close).any():  # robots hold or come in: look next period
-            self.queue_check_s = t
-        else:
-            self.queue_check_s = self._later_s(driving, gap, t)
+        # robots hold or come in: look next period
+        self.queue_check_s = t if close_any else self._later_s(far, t)
         rows = near.nonzero()[0]
-        if len(rows):
+        if len(rows):  # (robots let in or holding now: those whose sites are cleared change)
             self.let_in_or_hold(rows, gap, t)
-        self.clear_loiterers(driving & ((self.admitted & close) | self.holding), t)
+            close = gap < self.rules.queue_m
+            coming = driving & ((self.admitted & close) | self.holding)
+        self.clear_loiterers(coming, t)
 
-    def _driving(self, t: float) -> np.ndarray:
-        """(m,) the robots the queues look at: driving, not backing off, replanning, waiting
-        for a repair or held before a passage."""
+    def _scan(self, t: float) -> tuple:
+        """The fleet as the queues see it at ``t`` (``sim.spatial.plane.queue_scan``): the
+        robots driving (not backing off, replanning, waiting for a repair or held before a
+        passage), each one's gap to its service point, those that ask for a place now, those
+        whose sites idle robots clear, whether one is within ``queue_m`` and the least gap of
+        the others."""
         f = self.fleet
-        driving = (f.state == DRIVING) & (f.backoff_until_s <= t)
-        driving &= ~(f.replan | self.blocked | self.held)
-        return driving
+        return queue_scan(
+            f.state,
+            DRIVING,
+            f.backoff_until_s,
+            f.replan,
+            self.blocked,
+            self.held,
+            f.last_z_m,
+            self.service,
+            self.admitted,
+            self.holding,
+            t,
+            self.rules.queue_m,
+            self.rules.crowd_m,
+        )
 
-    def _later_s(self, driving: np.ndarray, gap: np.ndarray, t: float) -> float:
-        """With no robot ``driving`` within ``queue_m`` of its site (``gap`` from it, m): when
-        the nearest could first come that near, s."""
-        far = float(np.where(driving & (gap >= self.rules.queue_m), gap, np.inf).min())
+    def _later_s(self, far: float, t: float) -> float:
+        """With no robot driving within ``queue_m`` of its site and the nearest ``far`` from
+        its own: when it could first come that near, s."""
         closing = self.controller.speed_bound * self.follower.v_max_mps
         return next_check_s(t, far - self.rules.queue_m, closing)
 
     def later_check_s(self, t: float) -> float:
         """The next check :meth:`queue` sets at ``t`` when it finds some robot driving and none
         within ``queue_m`` of its site (the compiled control period's ``quiet.LATER``)."""
-        gap = np.abs(self.fleet.last_z_m - self.service)
-        return self._later_s(self._driving(t), gap, t)
+        return self._later_s(self._scan(t)[5], t)
 
     def let_in_or_hold(self, rows: np.ndarray, gap: np.ndarray, t: float) -> None:
         """:meth:`queue` for the robots ``rows`` near their sites (``gap`` m from them), first

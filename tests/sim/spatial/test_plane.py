@@ -149,6 +149,26 @@ def np_exit_clearances(z, ends, zs, j, within_m, coming, admitted):
     return Sites.clearance(z, ends, zs[around]), Sites.clearance(z, ends, zs[both])
 
 
+def np_queue_scan(
+    state, code, backoff, replan, blocked, held, z, service, admitted, holding, t, q, crowd_m
+):
+    driving = (state == code) & (backoff <= t)
+    driving &= ~(replan | blocked | held)
+    gap = np.abs(z - service)
+    close = gap < q
+    cand = driving & ~admitted
+    near = cand & close
+    hold = holding.nonzero()[0]
+    if len(hold):
+        rest = cand.nonzero()[0]
+        same = np.abs(service[rest, None] - service[hold][None, :]) < 1e-6
+        crowd = same & (np.abs(z[rest, None] - z[hold][None, :]) < crowd_m)
+        near[rest[crowd.any(axis=1)]] = True
+    far = float(np.where(driving & (gap >= q), gap, np.inf).min())
+    coming = driving & ((admitted & close) | holding)
+    return driving, gap, near, coming, (driving & close).any(), far
+
+
 def np_near_sites(z, rows, sites, reach_m):
     return (np.abs(z[rows][:, None] - sites[None, :]) < reach_m).nonzero()
 
@@ -328,6 +348,11 @@ def all_cases(seed: int):
             np.concatenate(plane.near_sites(*args, True)),
             np.concatenate(first),
         )
+        masks = rng.random((6, m)) < [[0.7], [0.1], [0.1], [0.1], [0.3], [0.2]]
+        backoff = np.where(masks[0], -np.inf, rng.choice([1.0, 2.0], m))
+        args = (state, 1, backoff, *masks[1:4], z, service, *masks[4:], 1.0, reach, 0.5)
+        got, want = plane.queue_scan(*args), np_queue_scan(*args)  # a queue's look (t = 1)
+        yield "queue_scan", np.concatenate(got, axis=None), np.concatenate(want, axis=None)
 
 
 def changed_mask(m: int, rows: np.ndarray) -> np.ndarray:
@@ -413,6 +438,7 @@ def test_compiled_geometry_agrees_with_numpy_within_rounding(seed):
         "exit_clearances": 200,
         "near_sites": 200,
         "near_sites_first": 200,
+        "queue_scan": 200,
     }
 
 

@@ -472,7 +472,8 @@ def test_first_come_first_served_and_the_deadline_moves_on_by_the_hold():
     jobs.finish(int(one), 20.0, True)  # a place frees
     jobs.sites.queue(at(w, 20.0))
     assert jobs.sites.admitted[held[1]] and jobs.sites.holding[held[0]]
-    assert f.deadline_s[held[1]] == deadline[held[1]] + (20.0 - 11.0)
+    moved_on = (deadline[held[1]] + HOLD_MAX_S) + ((20.0 - 11.0) - HOLD_MAX_S)  # held 11 to 20
+    assert f.deadline_s[held[1]] == moved_on
     assert f.deadline_s[held[0]] == deadline[held[0]] + HOLD_MAX_S
     assert np.isinf(jobs.sites.hold_since_s[held[1]]) and f.t_progress_s[held[1]] == 20.0
     assert waypoints(w, held[1])[-1] == f.site[held[1]]

@@ -104,6 +104,7 @@ def event_kernels() -> tuple:
         plane.coming_to,
         plane.exit_clearances,
         plane.near_sites,
+        plane.queue_scan,
     )
 
 
@@ -176,6 +177,8 @@ def warm_events() -> None:
     plane.coming_to(np.ones(4, dtype=np.int8), 1, z, z, 0j, 1.0)
     plane.exit_clearances(0j, z, z, 0, 1.0, mask, mask)
     plane.near_sites(z, four, z, 1.0, False)
+    state = np.ones(4, dtype=np.int8)
+    plane.queue_scan(state, 1, ends, mask, mask, mask, z, z, mask, mask, 0.0, 1.0, 1.0)
 
 
 def warm_up() -> None:

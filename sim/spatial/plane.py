@@ -1,6 +1,8 @@
 """The event rules' plane geometry on small arrays, compiled: the gap between two convex
-polygons, a line clipped to one, the distance from points to a path, how long a robot would
-wait for robots at work on its way, and a robot's free place at its site.
+polygons, a line clipped to one, the distance from points to a path and whether a way passes
+near them, the robots at work near others and the obstacles near each, how long a robot would
+wait for robots at work on its way, a robot's free place at its site, the site queues' look
+at the fleet, and a robot's ways out of a site and the robots coming to it.
 
 The traffic rules (``sim.spatial.traffic``), look-ahead (``sim.spatial.jams``) and the site
 queues (``sim.spatial.sites``) ask these questions many times per event, on arrays of a few

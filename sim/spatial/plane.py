@@ -283,12 +283,11 @@ def queue_scan(
             far = gap[i]
         near[i] = close and not admitted[i]
         coming[i] = (admitted[i] and close) or holding[i]
-    for i in range(m):  # in the crowd of a robot holding for the same site
-        if not driving[i] or admitted[i] or near[i]:
+    held = np.nonzero(holding)[0]  # a robot not let in, in the crowd of one holding: it asks
+    for i in range(m):
+        if not len(held) or not driving[i] or admitted[i] or near[i]:
             continue
-        for h in range(m):
-            if not holding[h]:
-                continue
+        for h in held:
             d = service[i] - service[h]
             if modulus(d.real, d.imag) < 1e-6:
                 d = z[i] - z[h]
@@ -338,6 +337,10 @@ def exit_clearances(
     ``admitted`` come, m (inf without any): ``Sites.clearance`` of each group."""
     clear = np.full(len(ends), math.inf)
     clear_in = np.full(len(ends), math.inf)
+    seg2 = np.empty(len(ends))  # each way out's squared length, as numpy's |seg| ** 2
+    for k in range(len(ends)):
+        seg_m = modulus(ends[k].real - z.real, ends[k].imag - z.imag)
+        seg2[k] = seg_m * seg_m
     for i in range(len(zs)):
         d = zs[i] - z
         if i == j or not modulus(d.real, d.imag) < within_m:
@@ -346,8 +349,7 @@ def exit_clearances(
         ar, ai = zs[i].real - z.real, zs[i].imag - z.imag
         for k in range(len(ends)):
             sr, si = ends[k].real - z.real, ends[k].imag - z.imag
-            seg_m = modulus(sr, si)
-            frac = clip01((ar * sr - ai * -si) / (seg_m * seg_m))
+            frac = clip01((ar * sr - ai * -si) / seg2[k])
             near_r = z.real + (frac * sr - 0.0 * si)
             near_i = z.imag + (frac * si + 0.0 * sr)
             gap = modulus(zs[i].real - near_r, zs[i].imag - near_i)

@@ -97,8 +97,8 @@ def bench_sim(
         ``{str(n): {"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
         "sim_s", "wall_s", "bare_ratio", "bare_steps_per_s",
         "bare10_steps_per_s", "contact_share", "bids_ms", "avoid_share", "avoid_bare_ratio",
-        "sites_share", "sites_bare_ratio", "control_share", "control_calib_ratio", "parts_s",
-        ...}}``: physics
+        "sites_share", "sites_bare_ratio", "control_share", "control_calib_ratio",
+        "physics_calib_ratio", "parts_s", ...}}``: physics
         steps of the full loop per wall second, simulated / wall seconds, full-loop time per step
         over bare ``space.step`` time per step, the bare loop's steps per second (as the world sets
         the space, and with ten solver iterations throughout); wall seconds per simulated
@@ -111,9 +111,11 @@ def bench_sim(
         (:func:`timed_sites`; avoidance inside the compiled control period is not timed
         apart: 0 there); the share of the loop's time in the control period as a whole
         (:func:`timed_period`: steering, avoidance, drive law, wheel limits) and that time per
-        physics step in calibration steps; the wall seconds of each part of the control
-        periods (:func:`timed_parts`). If ``allocate`` keeps ``timings_`` (``bids_s``,
-        ``auction_s``, ``rounds``), the timed rounds' ``round_bids_ms`` and ``round_auction_ms``;
+        physics step in calibration steps; the loop's own physics steps in calibration steps
+        (:func:`timed_physics`); the wall seconds of each part of the control periods
+        (:func:`timed_parts`) and of the physics steps (``parts_s["physics"]``). If
+        ``allocate`` keeps ``timings_`` (``bids_s``, ``auction_s``, ``rounds``), the timed
+        rounds' ``round_bids_ms`` and ``round_auction_ms``;
         with avoidance, :func:`replan_report`; if the planner built its distance field,
         :func:`field_report`.
     """
@@ -284,10 +286,11 @@ if __name__ == "__main__":
 @contextlib.contextmanager
 def loop_timers(control: type, timed: bool = True):
     """The bench's timers round a loop (:func:`timed_avoidance`, :func:`timed_sites`,
-    :func:`timed_period`, :func:`timed_parts`), or none with ``timed`` False. Yields
-    ``(avoid_s, sites_s, control_s, parts_s)``, or None untimed. The timers cost the loop
-    with avoidance more than the loop without (more of its calls are timed), so the price of
-    avoidance is measured untimed (:func:`scenarios.bench.run.bench_sim_part`)."""
+    :func:`timed_period`, :func:`timed_parts`, :func:`timed_physics`), or none with ``timed``
+    False. Yields ``(avoid_s, sites_s, control_s, parts_s, physics_s)``, or None untimed. The
+    timers cost the loop with avoidance more than the loop without (more of its calls are
+    timed), so the price of avoidance is measured untimed
+    (:func:`scenarios.bench.run.bench_sim_part`)."""
     if not timed:
         yield None
         return
@@ -296,8 +299,9 @@ def loop_timers(control: type, timed: bool = True):
         timed_sites() as sites_s,
         timed_period(control) as control_s,
         timed_parts(control) as parts_s,
+        timed_physics() as physics_s,
     ):
-        yield avoid_s, sites_s, control_s, parts_s
+        yield avoid_s, sites_s, control_s, parts_s, physics_s
 
 
 def timer_figures(timers, wall: float, steps: int, bare: float, calib: float) -> dict:
@@ -305,7 +309,7 @@ def timer_figures(timers, wall: float, steps: int, bare: float, calib: float) ->
     physics steps (``bare``, ``calib``: a bare and a calibration step, s); none untimed."""
     if timers is None:
         return {}
-    avoid_s, sites_s, control_s, parts_s = timers
+    avoid_s, sites_s, control_s, parts_s, physics_s = timers
     return {
         "avoid_share": avoid_s[0] / wall,
         "avoid_bare_ratio": (avoid_s[0] / steps) / bare,
@@ -313,8 +317,35 @@ def timer_figures(timers, wall: float, steps: int, bare: float, calib: float) ->
         "sites_bare_ratio": (sites_s[0] / steps) / bare,
         "control_share": control_s[0] / wall,
         "control_calib_ratio": (control_s[0] / steps) / calib,
-        "parts_s": dict(parts_s),
+        "physics_calib_ratio": (physics_s[0] / steps) / calib,
+        "parts_s": {**parts_s, "physics": physics_s[0]},
     }
+
+
+@contextlib.contextmanager
+def timed_physics():
+    """Time the loop's own physics steps (``ContactMonitor.run``: chipmunk's step with the
+    solver iterations the contacts set, and the overlap reads after a step with a contact)
+    while the block runs, in every world; yields a one-item list whose entry is the wall
+    seconds spent in them so far. Unlike the bare loop's steps, these are the steps the loop
+    took, under the commands it gave."""
+    from sim.spatial.contacts import ContactMonitor
+
+    spent = [0.0]
+    inner = ContactMonitor.__dict__["run"]
+
+    def timed(self, n, dt_s):
+        t0 = time.perf_counter()
+        try:
+            return inner(self, n, dt_s)
+        finally:
+            spent[0] += time.perf_counter() - t0
+
+    ContactMonitor.run = timed
+    try:
+        yield spent
+    finally:
+        ContactMonitor.run = inner
 
 
 @contextlib.contextmanager
@@ -373,7 +404,8 @@ def timed_period(kind: type):
         kind.period = inner
 
 
-TIMED_PARTS = ("control", "traffic", "jams", "sites")  # :func:`timed_parts`, reported so
+# :func:`timed_parts`, then :func:`timed_physics`: the parts of the loop reported apart
+TIMED_PARTS = ("control", "traffic", "jams", "sites", "physics")
 JAM_RULES = ("look_ahead", "standing_near", "pass_workers", "break_jams")
 
 

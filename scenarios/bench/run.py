@@ -45,6 +45,7 @@ PRICE_LABELS = {
     "traffic": "traffic rules",
     "jams": "look-ahead and jam rules",
     "sites": "site work",
+    "physics": "physics steps",
     "rest": "the rest",
 }
 PAPER_SETS = 8  # task sets of paper_spatial timed by the 10-robot figure (about 3,400 s simulated)
@@ -99,7 +100,7 @@ def bench_paper_loop(
         ``{"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
         "bare_ratio", "bare_steps_per_s", "sim_s", "wall_s", "avoid_share",
         "avoid_bare_ratio", "sites_share", "sites_bare_ratio", "control_share",
-        "control_calib_ratio", "parts_s"}`` (as
+        "control_calib_ratio", "physics_calib_ratio", "parts_s"}`` (as
         :func:`scenarios.bench.loop.bench_sim` says; untimed, without the timers' keys).
     """
     import time
@@ -308,8 +309,9 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
 
     ``split``: one round more, its loops timed part by part
     (``scenarios.bench.loop.loop_timers``), splits the price into the parts of the control
-    period (``avoidance_price[n]["price_parts"]``, with that round's own price,
-    ``timed_price``) and gives each loop's control period in calibration steps. The timers
+    period and the physics steps (``avoidance_price[n]["price_parts"]``, with that round's own
+    price, ``timed_price``) and gives each loop's control period and physics steps in
+    calibration steps. The timers
     slow the loop with avoidance more than the one without, which is why the price is not
     taken from that round."""
     from scenarios.bench.loop import TIMED_PARTS, bench_sim
@@ -353,7 +355,8 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
     if timed_round is not None:  # the control period in calibration steps: timed loops only
         for key, _, _ in runs:
             for n, row in out[key].items():
-                row["control_calib_ratio"] = timed_round[key][n]["control_calib_ratio"]
+                for ratio in ("control_calib_ratio", "physics_calib_ratio"):
+                    row[ratio] = timed_round[key][n][ratio]
 
     def price(on: dict, off: dict, prefix: str = "") -> float:
         return per_s(on, prefix) / per_s(off, prefix)
@@ -391,7 +394,7 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
         if repeat > 1:
             row["price_rounds"] = [price(got["sim_orca"][n], got["sim"][n]) for got in rounds]
         out["avoidance_price"][n] = row
-    control_column = "  of it the control period" if split else ""
+    control_column = "  of it the control period, the physics steps" if split else ""
     say(
         "  robots  avoidance     real-time factor  wall s per robot-hour  loop in calibration "
         f"steps per physics step (calibration step){control_column}  loop/bare step"
@@ -400,7 +403,9 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
     for n in out["sim"]:
         for key, label in labels:
             r = out[key][n]
-            control = f"{'':>24}{r['control_calib_ratio']:>6.2f}" if split else ""
+            control = ""
+            if split:
+                control = f"{r['control_calib_ratio']:>30.2f}, {r['physics_calib_ratio']:.2f}"
             say(
                 f"  {n:>6}  {label:>10}  {r['rtf']:>16,.1f}  {r['s_per_robot_h']:>21.2f}  "
                 f"{r['calib_ratio']:>14.2f} ({r['calib_step_us']:.1f} us){control}"

@@ -426,8 +426,9 @@ def build_parser() -> argparse.ArgumentParser:
         "the units users pay (real-time factor, wall seconds per simulated robot-hour, the price "
         "of collision avoidance as wall time with over without, with the traffic rules and with "
         "ORCA alone (with --split also split into the control period, the traffic rules, "
-        "look-ahead and the jam rules, site work and the rest), and the loop per physics step "
-        "in steps of a fixed calibration space); our GIF writer against FuncAnimation + "
+        "look-ahead and the jam rules, site work, the physics steps and the rest), and the loop "
+        "per physics step in steps of a fixed calibration space (with --split also the control "
+        "period's and the physics steps' share of it)); our GIF writer against FuncAnimation + "
         "PillowWriter; allocation time per round against team size. --json prints one JSON "
         "object. Compare the ratios, not absolute times: machines are shared and noisy.",
     )
@@ -450,8 +451,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--split",
         action="store_true",
         help="one round of the sim part more, with timers round the parts of the control "
-        "period, to split the price of avoidance into them (the timers slow the loop with "
-        "avoidance, so the price itself comes from the untimed rounds)",
+        "period and round the physics steps, to split the price of avoidance into them (the "
+        "timers slow the loop with avoidance, so the price itself comes from the untimed "
+        "rounds)",
     )
     h = sub.add_parser(
         "hardcase",

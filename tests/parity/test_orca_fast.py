@@ -396,6 +396,11 @@ def test_the_bench_times_avoidance_inside_the_loop():
     assert off["parts_s"]["control"] > 0.0
     assert off["parts_s"]["traffic"] == off["parts_s"]["jams"] == off["parts_s"]["sites"] == 0.0
     assert sum(on["parts_s"].values()) < on["wall_s"]
+    # the loop's own physics steps, timed apart from the control period's parts
+    assert 0.0 < on["parts_s"]["physics"] and 0.0 < off["parts_s"]["physics"]
+    assert on["physics_calib_ratio"] * on["calib_step_us"] * 1e-6 * on["sim_s"] * 60.0 == (
+        pytest.approx(on["parts_s"]["physics"])
+    )
     # the jam rule's re-plan, as the rule builds it and afresh, in the same run
     assert 0.0 < on["replan_ms"] and 0.0 < on["replan_fresh_ms"]
     assert "replan_ms" not in off

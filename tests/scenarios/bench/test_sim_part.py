@@ -119,9 +119,21 @@ def test_the_price_is_split_into_the_parts_of_the_control_period(monkeypatch):
     3 s per 50 s, so its price is 3; the parts' shares and the rest add up to 2. The price
     itself is the untimed round's: 2.4 s per 50 s against 2 s per 100 s, 2.4."""
     parts = {
-        ("none", "on"): {"control": 1.0, "traffic": 0.0, "jams": 0.0, "sites": 0.0},
-        ("orca", "on"): {"control": 1.0, "traffic": 0.5, "jams": 0.25, "sites": 0.1},
-        ("orca", "off"): {"control": 0.8, "traffic": 0.0, "jams": 0.2, "sites": 0.1},
+        ("none", "on"): {"control": 1.0, "traffic": 0.0, "jams": 0.0, "sites": 0.0, "physics": 0.6},
+        ("orca", "on"): {
+            "control": 1.0,
+            "traffic": 0.5,
+            "jams": 0.25,
+            "sites": 0.1,
+            "physics": 0.2,
+        },
+        ("orca", "off"): {
+            "control": 0.8,
+            "traffic": 0.0,
+            "jams": 0.2,
+            "sites": 0.1,
+            "physics": 0.2,
+        },
     }
     wall = {("none", "on"): (2.0, 100.0), ("orca", "on"): (3.0, 50.0), ("orca", "off"): (2.0, 50.0)}
     untimed = {("none", "on"): 2.0, ("orca", "on"): 2.4, ("orca", "off"): 2.0}
@@ -137,7 +149,8 @@ def test_the_price_is_split_into_the_parts_of_the_control_period(monkeypatch):
             }  # fmt: skip
         return {
             "wall_s": w, "sim_s": sim, "rtf": sim / w, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
-            "calib_step_us": 1.0, "control_calib_ratio": 0.7, "bare_ratio": 1.0,
+            "calib_step_us": 1.0, "control_calib_ratio": 0.7, "physics_calib_ratio": 0.3,
+            "bare_ratio": 1.0,
             "parts_s": dict(parts[avoidance, traffic]),
         }  # fmt: skip
 
@@ -153,19 +166,24 @@ def test_the_price_is_split_into_the_parts_of_the_control_period(monkeypatch):
     assert p10["price"] == pytest.approx(2.4)
     assert p10["timed_price"] == pytest.approx(3.0)
     # per simulated second: control 0.02 with and 0.01 without, traffic 0.01, jams 0.005,
-    # sites 0.002; over the 0.02 s per simulated second of the loop without
-    want = {"control": 0.5, "traffic": 0.5, "jams": 0.25, "sites": 0.1, "rest": 0.65}
+    # sites 0.002, physics 0.004 with and 0.006 without (fewer contacts); over the 0.02 s per
+    # simulated second of the loop without
+    want = {
+        "control": 0.5, "traffic": 0.5, "jams": 0.25, "sites": 0.1, "physics": -0.1, "rest": 0.75
+    }  # fmt: skip
     assert p10["price_parts"] == pytest.approx(want)
     assert sum(p10["price_parts"].values()) == pytest.approx(p10["timed_price"] - 1.0)
     assert out["sim_orca"]["10"]["control_calib_ratio"] == 0.7
+    assert out["sim_orca"]["10"]["physics_calib_ratio"] == 0.3
     assert out["sim_orca"]["10"]["wall_s"] == 2.4  # the figures: the untimed round's
     text = "\n".join(lines)
     assert (
         "split, from the timed round (its price 3.00), in loops without avoidance: control "
         "period +0.50, traffic rules +0.50, look-ahead and jam rules +0.25, site work +0.10, "
-        "the rest +0.65"
+        "physics steps -0.10, the rest +0.75"
     ) in text
-    assert "of it the control period" in text
+    assert "of it the control period, the physics steps" in text
+    assert "0.70, 0.30" in text  # each loop's control period and physics steps
 
 
 def test_of_two_middle_rounds_the_lower_price_is_taken(monkeypatch):
@@ -263,6 +281,7 @@ def test_an_untimed_loop_has_no_timer_in_it_and_reports_none_of_their_figures(mo
         return real_run(*args, **kwargs)
 
     timer_keys = {"avoid_share", "sites_share", "control_share", "control_calib_ratio", "parts_s"}
+    timer_keys.add("physics_calib_ratio")
     monkeypatch.setattr(loop, "_run", spy)
     off = loop.bench_sim(sizes=(10,), sim_seconds=3.0, avoidance="orca", timed=False)["10"]
     on = loop.bench_sim(sizes=(10,), sim_seconds=3.0, avoidance="orca", timed=True)["10"]

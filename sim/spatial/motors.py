@@ -13,13 +13,14 @@ through one ``pymunk.batch`` buffer, viewed as a structured numpy array.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pymunk
 import pymunk.batch as pb
 from pymunk._chipmunk_cffi import ffi, lib
 
 from sim.scenario import DriveSpec
-from sim.spatial.law.drive import control_body, on_arc
+from sim.spatial.law.drive import ARC_MAX_RADIUS_M
 
 _IO = pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
 _IO |= pb.BodyFields.ANGULAR_VELOCITY  # 6 floats per body: x, y, angle, vx, vy, omega
@@ -94,6 +95,7 @@ class Motors:
             raise RuntimeError("robots and control bodies must be runs of batch buffer rows")
         self.anchor_ = np.zeros(len(self.bodies))
         self.radius_ = np.zeros(len(self.bodies))
+        self.changed_ = np.zeros(len(self.bodies), dtype=np.int64)  # pivots to anchor anew
         self.anchor_list_ = [0.0] * len(self.bodies)  # arc radii of the pivots (write_one)
         self.cp_pivots_ = [p._constraint for p in self.pivots]
         self.cp_ctl_ = [c._body for c in controls]
@@ -130,19 +132,14 @@ class Motors:
         Straight (or turning in place) it sits on the robot and moves at v h. Robot rows of the
         buffer (the last :meth:`read`) are written back unchanged.
         """
-        v, w = v_mps, omega_radps
-        radius = self.radius_
-        radius.fill(0.0)
-        np.divide(v, w, out=radius, where=on_arc(v, w))
-        ctl = self.ctl
-        ctl["z"], ctl["vel"] = control_body(z, h, v, w, radius)  # vel is zero on an arc
-        ctl["th"] = th
-        ctl["w"] = w
-        changed = (self.anchor_ != radius).nonzero()[0]
-        if changed.size:
+        radius, changed = self.radius_, self.changed_
+        n = control_records(
+            z, h, th, v_mps, omega_radps, self.ctl_flat, radius, self.anchor_, changed
+        )
+        if n:
             pivots, set_anchor = self.cp_pivots_, lib.cpPivotJointSetAnchorA
-            for j, r in zip(changed.tolist(), (-radius[changed]).tolist(), strict=True):
-                set_anchor(pivots[j], (0.0, r))
+            for j in changed[:n].tolist():
+                set_anchor(pivots[j], (0.0, -radius[j]))
         self.radius_, self.anchor_ = self.anchor_, radius
         arr = self.buf_._float_arr
         num, arr.num = arr.num, 0  # the setter walks the buffer from its start
@@ -197,6 +194,36 @@ class Motors:
         self.radius_ = np.zeros(len(self.bodies))
         self.anchor_list_ = by_scalar.tolist()
         self.ptr_, self.num_ = None, -1
+
+
+@numba.njit(cache=True)
+def control_records(z, h, th, v, w, rec, radius, anchor, changed) -> int:
+    """The control bodies' records (x, y, angle, vx, vy, omega of each in turn, into ``rec``)
+    for the commands (v, w) of robots at z heading h = exp(i th), as :meth:`Motors.write`
+    describes (``sim.spatial.law.drive.control_body``): the arc radius R = v / w where
+    ``on_arc``, else 0 (into ``radius``), the body at z + R (i h) moving at (v - w R) h. The
+    robots whose R differs from ``anchor`` (their pivots' radii) go to the front of
+    ``changed``; returns how many. The arithmetic is numpy's, term by term, with its
+    baseline kernels (a complex times a real as (c.re r - c.im 0, c.im r + c.re 0))."""
+    n = 0
+    for j in range(len(z)):
+        vj, wj = v[j], w[j]
+        r = vj / wj if abs(vj) < abs(wj) * ARC_MAX_RADIUS_M else 0.0
+        radius[j] = r
+        hr, hi = h[j].real, h[j].imag
+        ir, ii = 0.0 * hr - 1.0 * hi, 0.0 * hi + 1.0 * hr  # 1j * h
+        s = vj - wj * r
+        k = 6 * j
+        rec[k] = (r * ir - 0.0 * ii) + z[j].real
+        rec[k + 1] = (r * ii + 0.0 * ir) + z[j].imag
+        rec[k + 2] = th[j]
+        rec[k + 3] = s * hr - 0.0 * hi
+        rec[k + 4] = s * hi + 0.0 * hr
+        rec[k + 5] = wj
+        if anchor[j] != r:
+            changed[n] = j
+            n += 1
+    return n
 
 
 def _set_body(body: pymunk.Body, row: list[float]) -> None:

@@ -11,8 +11,9 @@ import pymunk
 import pytest
 
 from sim.scenario import DriveSpec
-from sim.spatial.law.drive import ARC_MAX_RADIUS_M
-from sim.spatial.motors import Motors, _rows
+from sim.spatial.law.drive import ARC_MAX_RADIUS_M, control_body, on_arc
+from sim.spatial.motors import Motors, _rows, control_records
+from tests.golden.cases import in_baseline_child
 
 DRIVE = DriveSpec()
 STARTS = np.array([[1.0, 2.0], [4.0, 2.0], [7.0, 5.0]])
@@ -128,6 +129,79 @@ def test_write_puts_each_control_body_where_its_command_needs_it():
     # robot rows were written back unchanged
     assert [tuple(b.position) for b in mo.bodies] == [tuple(p) for p in STARTS]
     assert mo.state_arrays()["arc_radius_array"].tolist() == [0.0, 2.0, 0.0]
+
+
+def record_cases(seed: int, cases: int = 300, m: int = 9):
+    """(records, radii, changed robots) from :func:`control_records` and from numpy's law
+    (``control_body``, ``on_arc``) for random commands: straight, arcs, turns in place, arcs
+    too flat to drive as arcs, stops; pivots anchored at random, some at the new radius."""
+    rng = np.random.default_rng(seed)
+    for _ in range(cases):
+        z = rng.normal(0, 5, m) + 1j * rng.normal(0, 5, m)
+        th = rng.uniform(-4.0, 4.0, m)
+        h = np.exp(1j * th)
+        v = rng.choice([0.0, 1.0, -0.3, 1e-5], m) * rng.uniform(0.0, 1.0, m)
+        w = rng.choice([0.0, 1.0, -2.0, 1e-9], m) * rng.uniform(0.0, 1.0, m)
+        radius = np.zeros(m)
+        np.divide(v, w, out=radius, where=on_arc(v, w))
+        anchor = np.where(rng.random(m) < 0.5, radius, rng.choice([0.0, 1.0], m))
+        centre, vel = control_body(z, h, v, w, radius)
+        want = np.column_stack([centre.real, centre.imag, th, vel.real, vel.imag, w]).ravel()
+        rec, got_radius, changed = np.zeros(6 * m), np.zeros(m), np.zeros(m, dtype=np.int64)
+        n = control_records(z, h, th, v, w, rec, got_radius, anchor, changed)
+        yield (rec, got_radius, changed[:n]), (want, radius, (anchor != radius).nonzero()[0])
+
+
+def record_mismatches(seed: int) -> list[int]:
+    """[values compared, values not numpy's to the last bit] over :func:`record_cases`."""
+    tally = [0, 0]
+    for got, want in record_cases(seed):
+        for g, w in zip(got[:2], want[:2], strict=True):
+            tally[0] += g.size
+            tally[1] += int((g.view(np.uint64) != w.view(np.uint64)).sum())
+    return tally
+
+
+def test_control_records_are_numpys_law():
+    """The compiled records agree with the numpy law within rounding here, the radii exactly,
+    and the robots whose pivots need a new anchor are those whose radius changed, in order;
+    the cases reach straight runs, arcs and arcs too flat to be driven as arcs."""
+    kinds = set()
+    for (rec, radius, changed), (want, want_radius, want_changed) in record_cases(0):
+        np.testing.assert_allclose(rec, want, rtol=0, atol=1e-12)
+        assert radius.tolist() == want_radius.tolist()
+        assert changed.tolist() == want_changed.tolist()
+        kinds |= {"arc" if r else "straight" for r in radius.tolist()}
+        kinds |= {"changed"} if len(changed) else set()
+    assert kinds == {"arc", "straight", "changed"}
+
+
+def test_control_records_are_numpys_bit_for_bit_with_baseline_kernels():
+    """In a child Python with numpy's baseline kernels (what the golden runs use), every
+    record and radius is numpy's law's to the last bit."""
+    tallies = in_baseline_child(__file__, "[ns['record_mismatches'](s) for s in (0, 1)]")
+    for checked, differ in tallies:
+        assert checked > 0 and differ == 0, (checked, differ)
+
+
+def test_a_pivot_is_anchored_again_only_when_its_radius_changes():
+    _, mo = fleet()
+    rob = mo.read()
+    z, th = rob["z"].copy(), rob["th"].copy()
+    h = np.exp(1j * th)
+    v, w = np.array([0.0, 0.5, 0.0]), np.array([0.0, 0.25, 0.0])
+    mo.write(z, th, h, v, w)
+    assert tuple(mo.pivots[1].anchor_a) == (0.0, -2.0)
+    mo.pivots[1].anchor_a = (0.0, 0.0)  # so a write of the same radius would show
+    mo.read()
+    mo.write(z, th, h, v, w)
+    assert tuple(mo.pivots[1].anchor_a) == (0.0, 0.0)
+    mo.read()
+    mo.write(z, th, h, v, np.array([0.0, 0.5, 0.0]))  # radius 1 now
+    assert tuple(mo.pivots[1].anchor_a) == (0.0, -1.0)
+    mo.read()
+    mo.write(z, th, h, np.zeros(3), np.zeros(3))  # stopped: straight, radius 0
+    assert tuple(mo.pivots[1].anchor_a) == (0.0, 0.0)
 
 
 def test_a_flat_arc_is_driven_straight():

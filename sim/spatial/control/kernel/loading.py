@@ -83,11 +83,12 @@ def drop_cache(where: Path) -> None:
 def event_kernels() -> tuple:
     """The compiled functions the world calls between control periods: the planner's
     visibility test and all-pairs search, a path segment's free widths, the event rules'
-    geometry (``sim.spatial.plane``)."""
-    from sim.spatial import plane
+    geometry (``sim.spatial.plane``), the motors' control-body records."""
+    from sim.spatial import motors, plane
     from sim.spatial.navigation import geodesics, segments, widths
 
     return (
+        motors.control_records,
         segments.blocked_segments,
         geodesics.visibility_geodesics,
         widths.segment_sides,
@@ -148,12 +149,14 @@ def ensure_compiled(stream=None) -> float:
 
 def warm_events() -> None:
     """One call of each event kernel with the types the world passes it."""
-    from sim.spatial import plane
+    from sim.spatial import motors, plane
     from sim.spatial.navigation import geodesics, segments, widths
 
     z = np.array([0j, 1 + 0j, 1 + 1j, 1j])
     one = np.zeros(1, dtype=np.int64)
     four = np.zeros(4, dtype=np.int64)
+    arc = np.ones(4)
+    motors.control_records(z, z, arc, arc, arc, np.zeros(24), np.zeros(4), np.zeros(4), four)
     mask = np.ones(4, dtype=bool)
     xy = np.array([[0.0, 0.0], [2.0, 0.5]])
     box = np.array([[0.5, -1.0]]), np.array([[1.5, 1.0]])

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -146,8 +147,33 @@ class StallMeter:
         return run[rows]
 
     def _sample_small(self, fleet, holding: np.ndarray) -> None:
-        """:meth:`sample` robot by robot in plain Python (a small team): the same causes,
-        the nearest robot the first of equal distances as numpy's ``argmin``, the same stands."""
+        """:meth:`sample` robot by robot in compiled code (a small team): :meth:`_sample_py`'s
+        counts, stands and map, bit for bit (:func:`sample_small`)."""
+        m = len(fleet.state)
+        if len(self.run) != m:
+            self.run, self.run_task = np.zeros(m, dtype=np.int64), np.full(m, -1, dtype=np.int64)
+        self.driving += sample_small(
+            fleet.state,
+            fleet.v_cmd_mps,
+            fleet.task,
+            fleet.last_z_m,
+            fleet.last_th_rad,
+            holding,
+            self.run,
+            self.run_task,
+            self.still_mps,
+            self.near_m,
+            self.long_after,
+            1.0 / self.cell_m if self.map.size else 0.0,
+            self.still,
+            self.long,
+            self.map,
+        )
+
+    def _sample_py(self, fleet, holding: np.ndarray) -> None:
+        """:meth:`sample` robot by robot in plain Python (the reference of
+        :meth:`_sample_small`): the same causes, the nearest robot the first of equal
+        distances as numpy's ``argmin``, the same stands."""
         state, v = fleet.state.tolist(), fleet.v_cmd_mps.tolist()
         rows, n = [], 0
         for j, (sj, vj) in enumerate(zip(state, v, strict=True)):
@@ -269,6 +295,65 @@ class StallMeter:
                 f"stalls/run: {len(run)} robots' stands, the fleet has {self.n_robots}"
             )
         self.run, self.run_task = run.copy(), run_task.copy()
+
+
+@numba.njit(cache=True)
+def sample_small(
+    state, v, task, z, th, hold, run, run_task, still_mps, near_m, long_after, inv_cell, still,
+    long, where,
+) -> int:  # fmt: skip
+    """One control period of :class:`StallMeter` in one pass, as ``StallMeter._sample_py``
+    counts it (its distances ``abs`` of a complex, the C library's ``hypot``; its angles the
+    C library's ``cos``): stands into ``run`` and ``run_task`` (``run`` zero for every robot
+    not standing), standing periods by cause into ``still`` and ``long`` and, with
+    ``inv_cell`` > 0, into the map ``where`` (causes, rows, columns). Returns the robots
+    driving (0: nothing counted, only the stands ended)."""
+    m, n = len(state), 0
+    for j in range(m):
+        stands = state[j] == DRIVING and abs(v[j]) < still_mps
+        n += state[j] == DRIVING
+        if stands:
+            run[j] = run[j] + 1 if run[j] > 0 and run_task[j] == task[j] else 1
+            run_task[j] = task[j]
+        else:
+            run[j] = 0
+    if not n:
+        return 0
+    for j in range(m):
+        if not run[j]:  # not standing
+            continue
+        if hold[j]:
+            cause = _QUEUE
+        else:
+            zj, best, k = z[j], math.inf, -1
+            for i in range(m):
+                if i != j:
+                    d = math.hypot(z[i].real - zj.real, z[i].imag - zj.imag)
+                    if d < best:
+                        best, k = d, i
+            if best >= near_m:
+                cause = _NONE
+            elif state[k] == WORKING:
+                cause = _WORK
+            elif state[k] != DRIVING:
+                cause = _IDLE
+            else:
+                cos = math.cos(th[k] - th[j])
+                if cos < _COS_HEAD_ON:
+                    cause = _HEAD_ON
+                elif cos > _COS_SAME_WAY:
+                    cause = _SAME_WAY
+                else:
+                    cause = _CROSSING
+        still[cause] += 1
+        if run[j] > long_after:
+            long[cause] += 1
+        if inv_cell > 0.0:
+            _, ny, nx = where.shape
+            ix = min(max(int(z[j].real * inv_cell), 0), nx - 1)
+            iy = min(max(int(z[j].imag * inv_cell), 0), ny - 1)
+            where[cause, iy, ix] += 1
+    return n
 
 
 def nearest_other(

@@ -29,11 +29,54 @@ def _fleet(state, v, xy, th_deg, task=None):
     )
 
 
-@pytest.fixture(params=["python", "numpy"])
+@pytest.fixture(params=["small", "numpy"])
 def counting(request):
-    """Both ways a period is counted: robot by robot (a small team) and over numpy arrays
-    (``small_max``: the largest team counted in Python)."""
+    """Both ways a period is counted: robot by robot in compiled code (a small team) and over
+    numpy arrays (``small_max``: the largest team counted robot by robot)."""
     return {"small_max": 0} if request.param == "numpy" else {}
+
+
+def _random_fleet(rng, m, grid):
+    """A random fleet for one period: states, commands at and round ``still_mps``, robots on
+    a 0.5 m grid (equal distances) or anywhere, headings often on the cause angles."""
+    z = (rng.integers(0, 8, m) + 1j * rng.integers(0, 8, m)) * 0.5
+    if not grid:
+        z = z + rng.normal(0.0, 0.3, m) + 1j * rng.normal(0.0, 0.3, m)
+    th = np.where(rng.random(m) < 0.5, rng.choice([0.0, 45.0, 135.0, 180.0], m), 0.0)
+    th = np.radians(th + rng.uniform(0.0, 360.0, m) * (rng.random(m) < 0.5))
+    return SimpleNamespace(
+        state=rng.choice(np.array([IDLE, DRIVING, DRIVING, WORKING], dtype=np.int8), m),
+        v_cmd_mps=rng.choice([0.0, STILL_MPS, 0.5 * STILL_MPS, 1.0], m),
+        last_z_m=z,
+        last_th_rad=th,
+        task=rng.integers(0, 3, m),
+    )
+
+
+@pytest.mark.parametrize("grid", [True, False])
+def test_the_compiled_count_of_a_small_team_is_the_python_one(grid):
+    """Over 400 random periods of 12 robots (stands going on and ending, ties of distance on
+    a grid, headings on the cause angles, robots holding, some outside the arena), the
+    compiled count gives every count, stand and map cell the Python reference gives."""
+    rng = np.random.default_rng(7)
+    compiled = StallMeter(0.1, 3.0, 3.0)
+    python = StallMeter(0.1, 3.0, 3.0)
+    python._sample_small = python._sample_py
+    fleet, holding = _random_fleet(rng, 12, grid), np.zeros(12, dtype=bool)
+    for _ in range(400):
+        new, change = _random_fleet(rng, 12, grid), rng.random(12) < 0.05  # a few change
+        for key, value in vars(new).items():
+            setattr(fleet, key, np.where(change, value, getattr(fleet, key)))
+        holding = np.where(change, rng.random(12) < 0.2, holding)
+        compiled.sample(fleet, holding)
+        python.sample(fleet, holding)
+        assert compiled.run.tolist() == python.run.tolist()
+        assert compiled.run_task.tolist() == python.run_task.tolist()
+    assert compiled.driving == python.driving > 0
+    assert compiled.still.tolist() == python.still.tolist()
+    assert compiled.long.tolist() == python.long.tolist() and python.long.sum() > 0
+    assert (compiled.map == python.map).all() and python.map.sum() == python.still.sum()
+    assert (python.still > 0).all()  # every cause came up
 
 
 def test_each_still_robot_is_counted_once_under_its_cause(counting):

@@ -83,12 +83,14 @@ def drop_cache(where: Path) -> None:
 def event_kernels() -> tuple:
     """The compiled functions the world calls between control periods: the planner's
     visibility test and all-pairs search, a path segment's free widths, the event rules'
-    geometry (``sim.spatial.plane``), the motors' control-body records."""
-    from sim.spatial import motors, plane
+    geometry (``sim.spatial.plane``), the motors' control-body records, a small team's stall
+    count."""
+    from sim.spatial import motors, plane, stalls
     from sim.spatial.navigation import geodesics, segments, widths
 
     return (
         motors.control_records,
+        stalls.sample_small,
         segments.blocked_segments,
         geodesics.visibility_geodesics,
         widths.segment_sides,
@@ -149,7 +151,7 @@ def ensure_compiled(stream=None) -> float:
 
 def warm_events() -> None:
     """One call of each event kernel with the types the world passes it."""
-    from sim.spatial import motors, plane
+    from sim.spatial import motors, plane, stalls
     from sim.spatial.navigation import geodesics, segments, widths
 
     z = np.array([0j, 1 + 0j, 1 + 1j, 1j])
@@ -157,6 +159,12 @@ def warm_events() -> None:
     four = np.zeros(4, dtype=np.int64)
     arc = np.ones(4)
     motors.control_records(z, z, arc, arc, arc, np.zeros(24), np.zeros(4), np.zeros(4), four)
+    causes = np.zeros(len(stalls.CAUSES), dtype=np.int64)
+    stalls.sample_small(
+        np.ones(4, dtype=np.int8), np.zeros(4), four, z, np.zeros(4), np.zeros(4, dtype=bool),
+        four.copy(), four.copy(), 0.05, 1.2, 20, 1.0, causes, causes.copy(),
+        np.zeros((len(stalls.CAUSES), 2, 2), dtype=np.int64),
+    )  # fmt: skip
     mask = np.ones(4, dtype=bool)
     xy = np.array([[0.0, 0.0], [2.0, 0.5]])
     box = np.array([[0.5, -1.0]]), np.array([[1.5, 1.0]])

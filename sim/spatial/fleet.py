@@ -12,9 +12,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
-from sim.states import DRIVING, IDLE, WORKING
+from sim.states import DRIVING, IDLE, WAITING, WORKING
 
 
 @dataclass(slots=True, eq=False)
@@ -231,3 +232,14 @@ def refresh_schedule(fleet: FleetState, schedule: Schedule, clock: Clock, keep_l
         sch.steer_list = steering.nonzero()[0].tolist()
     sch.stuck_check_s = sch.prox_check_s = -np.inf
     sch.resting = False
+
+
+@numba.njit(cache=True)
+def shown_now(state: np.ndarray, t_progress_s: np.ndarray, t_s: float) -> np.ndarray:
+    """``sim.states.shown_states`` in one compiled pass (what the world records each control
+    period): ``WAITING`` for a driving robot whose stuck clock is set after ``t_s``, else its
+    state; a new array of ``state``'s dtype."""
+    out = np.empty_like(state)
+    for j in range(len(state)):
+        out[j] = WAITING if state[j] == DRIVING and t_progress_s[j] > t_s else state[j]
+    return out

@@ -63,14 +63,14 @@ from sim.spatial import layout
 from sim.spatial.contacts import ContactMonitor
 from sim.spatial.control import CONTROLS, ControlParts, control_kind
 from sim.spatial.controller import DiffDriveController
-from sim.spatial.fleet import Clock, FleetState, Schedule
+from sim.spatial.fleet import Clock, FleetState, Schedule, shown_now
 from sim.spatial.jobs import Jobs
 from sim.spatial.law.orca import OrcaLaw
 from sim.spatial.motors import Motors
 from sim.spatial.navigation.paths import PathFollower
 from sim.spatial.navigation.planning import GridPlanner
 from sim.spatial.stalls import StallMeter
-from sim.states import WORKING, shown_states
+from sim.states import WORKING
 from sim.tasks import Batch
 from sim.world import Abandon, Completion, WorldState
 
@@ -480,7 +480,7 @@ class PymunkWorld:
             if self.recorder is not None:
                 z = f.last_z_m
                 xy = np.column_stack([z.real, z.imag])
-                shown = shown_states(f.state, f.t_progress_s, t)
+                shown = shown_now(f.state, f.t_progress_s, t)
                 self.recorder.poses(t, xy, f.last_th_rad, shown)
             return
         self.control.period(t)
@@ -497,5 +497,5 @@ class PymunkWorld:
                 self.jobs.jams.break_jams(t, near)
         self.stalls.sample(f, holding)
         if self.recorder is not None:
-            shown = shown_states(f.state, f.t_progress_s, t)
+            shown = shown_now(f.state, f.t_progress_s, t)
             self.recorder.poses(t, self.motors.flat[:, :2], f.last_th_rad, shown)

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.spatial.fleet import Clock, FleetState, Schedule, refresh_schedule
-from sim.states import DRIVING, IDLE, WORKING
+from sim.spatial.fleet import Clock, FleetState, Schedule, refresh_schedule, shown_now
+from sim.states import DRIVING, IDLE, WAITING, WORKING, shown_states
 
 STARTS = np.array([[1.0, 2.0], [3.5, 0.5], [6.0, 4.0]])
 
@@ -134,3 +134,21 @@ def test_the_clock_counts_steps_so_time_never_drifts():
     for _ in range(6000):
         clock.steps += 1
     assert clock.time_s == 6000 * (1.0 / 60.0) == pytest.approx(100.0, abs=1e-12)
+
+
+def test_the_states_recorded_are_shown_states_compiled():
+    """``shown_now`` gives ``sim.states.shown_states``' answer and dtype: waiting only for a
+    driving robot whose stuck clock is set after now (not at now, not inf while idle)."""
+    rng = np.random.default_rng(3)
+    seen = set()
+    for _ in range(200):
+        state = rng.choice(np.array([IDLE, DRIVING, WORKING], dtype=np.int8), 9)
+        clock = rng.choice([-np.inf, 4.0, 5.0, 6.0, np.inf], 9)
+        got, want = shown_now(state, clock, 5.0), shown_states(state, clock, 5.0)
+        assert got.dtype == want.dtype == np.int8 and got.tolist() == want.tolist()
+        assert got is not state
+        seen |= set(got.tolist())
+    assert seen == {IDLE, DRIVING, WORKING, WAITING}
+    state = np.array([DRIVING, DRIVING, DRIVING, IDLE], dtype=np.int8)
+    clock = np.array([5.0, 5.5, np.inf, np.inf])
+    assert shown_now(state, clock, 5.0).tolist() == [DRIVING, WAITING, WAITING, IDLE]

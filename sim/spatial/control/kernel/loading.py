@@ -84,13 +84,14 @@ def event_kernels() -> tuple:
     """The compiled functions the world calls between control periods: the planner's
     visibility test and all-pairs search, a path segment's free widths, the event rules'
     geometry (``sim.spatial.plane``), the motors' control-body records, a small team's stall
-    count."""
-    from sim.spatial import motors, plane, stalls
+    count, the states recorded."""
+    from sim.spatial import fleet, motors, plane, stalls
     from sim.spatial.navigation import geodesics, segments, widths
 
     return (
         motors.control_records,
         stalls.sample_small,
+        fleet.shown_now,
         segments.blocked_segments,
         geodesics.visibility_geodesics,
         widths.segment_sides,
@@ -151,7 +152,7 @@ def ensure_compiled(stream=None) -> float:
 
 def warm_events() -> None:
     """One call of each event kernel with the types the world passes it."""
-    from sim.spatial import motors, plane, stalls
+    from sim.spatial import fleet, motors, plane, stalls
     from sim.spatial.navigation import geodesics, segments, widths
 
     z = np.array([0j, 1 + 0j, 1 + 1j, 1j])
@@ -159,6 +160,7 @@ def warm_events() -> None:
     four = np.zeros(4, dtype=np.int64)
     arc = np.ones(4)
     motors.control_records(z, z, arc, arc, arc, np.zeros(24), np.zeros(4), np.zeros(4), four)
+    fleet.shown_now(np.ones(4, dtype=np.int8), np.zeros(4), 0.0)
     causes = np.zeros(len(stalls.CAUSES), dtype=np.int64)
     stalls.sample_small(
         np.ones(4, dtype=np.int8), np.zeros(4), four, z, np.zeros(4), np.zeros(4, dtype=bool),

@@ -331,21 +331,8 @@ def timed_physics():
     took, under the commands it gave."""
     from sim.spatial.contacts import ContactMonitor
 
-    spent = [0.0]
-    inner = ContactMonitor.__dict__["run"]
-
-    def timed(self, n, dt_s):
-        t0 = time.perf_counter()
-        try:
-            return inner(self, n, dt_s)
-        finally:
-            spent[0] += time.perf_counter() - t0
-
-    ContactMonitor.run = timed
-    try:
+    with _timing(ContactMonitor, "run") as spent:
         yield spent
-    finally:
-        ContactMonitor.run = inner
 
 
 @contextlib.contextmanager
@@ -387,21 +374,30 @@ def timed_period(kind: type):
     """Time every call of ``kind.period`` (a control period class: the whole period, steering,
     collision avoidance, drive law, wheel limits) while the block runs, in every world built
     meanwhile; yields a one-item list whose entry is the wall seconds spent in it so far."""
-    spent = [0.0]
-    inner = kind.__dict__["period"]
+    with _timing(kind, "period") as spent:
+        yield spent
 
-    def timed(self, t):
+
+@contextlib.contextmanager
+def _timing(cls: type, name: str):
+    """Time every call of the method ``cls.name`` while the block runs, in every instance;
+    yields a one-item list whose entry is the wall seconds spent in it so far. The class's
+    own method is put back after the block."""
+    spent = [0.0]
+    inner = cls.__dict__[name]
+
+    def timed(*args, **kwargs):
         t0 = time.perf_counter()
         try:
-            return inner(self, t)
+            return inner(*args, **kwargs)
         finally:
             spent[0] += time.perf_counter() - t0
 
-    kind.period = timed
+    setattr(cls, name, timed)
     try:
         yield spent
     finally:
-        kind.period = inner
+        setattr(cls, name, inner)
 
 
 # :func:`timed_parts`, then :func:`timed_physics`: the parts of the loop reported apart

@@ -184,12 +184,20 @@ def test_control_records_are_numpys_bit_for_bit_with_baseline_kernels():
         assert checked > 0 and differ == 0, (checked, differ)
 
 
-def test_a_pivot_is_anchored_again_only_when_its_radius_changes():
-    _, mo = fleet()
+def pose(mo: Motors) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions, headings and their unit vectors of a fresh read."""
     rob = mo.read()
     z, th = rob["z"].copy(), rob["th"].copy()
-    h = np.exp(1j * th)
-    v, w = np.array([0.0, 0.5, 0.0]), np.array([0.0, 0.25, 0.0])
+    return z, th, np.exp(1j * th)
+
+
+ARC = np.array([0.0, 0.5, 0.0]), np.array([0.0, 0.25, 0.0])  # robot 1 on an arc of radius 2
+
+
+def test_a_pivot_is_anchored_again_only_when_its_radius_changes():
+    _, mo = fleet()
+    z, th, h = pose(mo)
+    v, w = ARC
     mo.write(z, th, h, v, w)
     assert tuple(mo.pivots[1].anchor_a) == (0.0, -2.0)
     mo.pivots[1].anchor_a = (0.0, 0.0)  # so a write of the same radius would show
@@ -228,11 +236,8 @@ def test_driven_robots_follow_their_arcs_without_sliding():
 def test_write_one_commands_one_robot_as_write_does():
     _, a = fleet()
     _, b = fleet()
-    ra = a.read()
-    z, th = ra["z"].copy(), ra["th"].copy()
-    h = np.exp(1j * th)
-    v, w = np.array([0.0, 0.5, 0.0]), np.array([0.0, 0.25, 0.0])
-    a.write(z, th, h, v, w)
+    z, th, h = pose(a)
+    a.write(z, th, h, *ARC)
     b.read()
     b.write_one(1, 2.0, 2.0, math.pi / 2, 0.0, 0.0, 0.25, 2.0)
     sa, sb = a.state_arrays(), b.state_arrays()

@@ -311,9 +311,8 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
     (``scenarios.bench.loop.loop_timers``), splits the price into the parts of the control
     period and the physics steps (``avoidance_price[n]["price_parts"]``, with that round's own
     price, ``timed_price``) and gives each loop's control period and physics steps in
-    calibration steps. The timers
-    slow the loop with avoidance more than the one without, which is why the price is not
-    taken from that round."""
+    calibration steps. The timers slow the loop with avoidance more than the one without,
+    which is why the price is not taken from that round."""
     from scenarios.bench.loop import TIMED_PARTS, bench_sim
 
     say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
@@ -352,7 +351,7 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
         return best
 
     out = {key: {n: quickest(key, n) for n in rounds[0][key]} for key, _, _ in runs}
-    if timed_round is not None:  # the control period in calibration steps: timed loops only
+    if timed_round is not None:  # control period, physics in calibration steps: timed loops
         for key, _, _ in runs:
             for n, row in out[key].items():
                 for ratio in ("control_calib_ratio", "physics_calib_ratio"):

@@ -17,5 +17,7 @@ WAITING = 3  # recorded only (never in the fleet state): driving, but decided to
 
 def shown_states(state: np.ndarray, t_progress_s: np.ndarray, t_s: float) -> np.ndarray:
     """The states to record: ``WAITING`` for a driving robot whose stuck clock is set after
-    ``t_s`` (progress sets it to now; only a decision to wait sets it later), else ``state``."""
+    ``t_s`` (progress sets it to now; only a decision to wait sets it later), else ``state``.
+    The pymunk world records the same compiled (``sim.spatial.fleet.shown_now``); this is its
+    reference in the tests."""
     return np.where((state == DRIVING) & (t_progress_s > t_s), WAITING, state)

@@ -115,6 +115,70 @@ def clip_line(origin: complex, direction: complex, poly: np.ndarray) -> tuple[fl
 
 
 @numba.njit(cache=True, nogil=True)
+def worker_room(
+    z: complex,
+    radius_m: float,
+    corner: np.ndarray,
+    flat: np.ndarray,
+    at: np.ndarray,
+    others: np.ndarray,
+    passage_m: float,
+) -> tuple[bool, complex, float, float]:
+    """``passages.worker_passage``'s geometry for a robot at work at ``z`` (its body
+    ``z + corner``): the shapes are the polygons ``flat[at[s]:at[s + 1]]`` and a polygon
+    ``o + corner`` round each of ``others``. The line across (from the body to the nearest
+    shape, a unit vector) and the free room on its far and near side, beyond the body; False
+    (no passage) if the nearest shape is ``passage_m`` or more away or a side leaves that
+    much. The arithmetic on complex scalars is Python's (a complex times or over a float as
+    a complex with no imaginary part; ``abs`` the C library's ``hypot``), as in the Python
+    function, so the answers are its bit for bit."""
+    nc, ns = len(corner), len(at) - 1
+    n = ns + len(others)
+    body = np.empty(nc, dtype=np.complex128)
+    for c in range(nc):
+        body[c] = z + corner[c]
+    disc = np.empty(nc, dtype=np.complex128)
+    best, p, q = math.inf, 0j, 0j
+    for s in range(n):  # the nearest shape: the first of the least gap (np.argmin)
+        if s < ns:
+            d, ps, qs = polygon_gap(body, flat[at[s] : at[s + 1]])
+        else:
+            for c in range(nc):
+                disc[c] = others[s - ns] + corner[c]
+            d, ps, qs = polygon_gap(body, disc)
+        if s == 0 or d < best:
+            best, p, q = d, ps, qs
+    if not best < passage_m:
+        return False, 0j, 0.0, 0.0
+    dr, di = q.real - p.real, q.imag - p.imag
+    size = math.hypot(dr, di)
+    if size > 1e-12:  # Python's complex / float: (dr + di 0) / size, (di - dr 0) / size
+        ar, ai = (dr + di * 0.0) / size, (di - dr * 0.0) / size
+    else:
+        ar, ai = 1.0, 0.0
+    room = np.empty(2)
+    for side in range(2):  # -1, then +1: away from the nearest first
+        sign = -1.0 if side == 0 else 1.0
+        way = complex(sign * ar - 0.0 * ai, sign * ai + 0.0 * ar)  # sign * across
+        least, any_ahead = math.inf, False
+        for s in range(n):
+            if s < ns:
+                t0, t1 = clip_line(z, way, flat[at[s] : at[s + 1]])
+            else:
+                for c in range(nc):
+                    disc[c] = others[s - ns] + corner[c]
+                t0, t1 = clip_line(z, way, disc)
+            if t0 <= t1 and t1 > 0.0:
+                t = t0 if not 0.0 > t0 else 0.0  # max(t0, 0.0)
+                if not any_ahead or t < least:  # min(...)
+                    least, any_ahead = t, True
+        room[side] = least - radius_m
+        if room[side] >= passage_m:
+            return False, 0j, 0.0, 0.0
+    return True, complex(ar, ai), room[1], room[0]
+
+
+@numba.njit(cache=True, nogil=True)
 def path_gaps(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     """(n,) distance from each of ``points`` to the polyline ``path`` (its segments path[k]
     -> path[k + 1]; inf for a path of fewer than two points), m."""

@@ -29,6 +29,7 @@ from sim.spatial.navigation.buckets import BoxBuckets, typical_size
 from sim.spatial.navigation.distfield import SHARED, DistanceField
 from sim.spatial.navigation.geodesics import visibility_geodesics
 from sim.spatial.navigation.segments import blocked_segments
+from sim.spatial.navigation.shapes import grown_shape
 
 _TOL_M = 1e-9  # boundaries count as free: segments may run along an inflated edge
 _SNAP_M = 1e-6  # how far past a boundary a point pushed out of an obstacle lands
@@ -206,8 +207,12 @@ class GridPlanner:
         """An obstacle (a tuple of its corners) grown by ``inflate_m``: the polygon (P, 2), its
         outward normals (P, 2) and offsets (P,) (:func:`halfplanes`), its bounding box's low
         and high corner and its edges (normal x, normal y, offset), as Python floats."""
-        poly = inflate(np.asarray(obstacle, dtype=float), self.inflate_m)
-        normal, offset = halfplanes(poly)
+        corners = np.ascontiguousarray(obstacle, dtype=float)
+        if self.inflate_m > 0 and len(corners) >= 3:  # compiled: inflate, then halfplanes
+            poly, normal, offset = grown_shape(corners, self.inflate_m)
+        else:
+            poly = inflate(corners, self.inflate_m)
+            normal, offset = halfplanes(poly)
         pairs = zip(normal.tolist(), offset.tolist(), strict=True)
         edges = [(nx, ny, c) for (nx, ny), c in pairs]
         lo, hi = poly.min(axis=0).tolist(), poly.max(axis=0).tolist()

@@ -34,7 +34,7 @@ def to_segments(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray
     return np.abs(p - near), near
 
 
-def _poly(poly) -> np.ndarray:
+def contiguous_poly(poly) -> np.ndarray:
     """A polygon as the compiled functions take it: a contiguous (P,) complex array."""
     if isinstance(poly, np.ndarray) and poly.dtype == complex and poly.flags.c_contiguous:
         return poly
@@ -45,14 +45,14 @@ def polygon_gap(pa: np.ndarray, pb: np.ndarray) -> tuple[float, complex, complex
     """Distance between two disjoint convex polygons and the nearest points (on ``pa``, on
     ``pb``); 0 where they touch or overlap (then the points are a vertex and its nearest).
     Compiled (``sim.spatial.plane``)."""
-    return plane.polygon_gap(_poly(pa), _poly(pb))
+    return plane.polygon_gap(contiguous_poly(pa), contiguous_poly(pb))
 
 
 def clip_line(origin: complex, direction: complex, poly: np.ndarray) -> tuple[float, float]:
     """The interval of t where ``origin + t direction`` lies in the convex CCW polygon
     (boundary included); (inf, -inf) if the line misses it. Compiled
     (``sim.spatial.plane``)."""
-    return plane.clip_line(complex(origin), complex(direction), _poly(poly))
+    return plane.clip_line(complex(origin), complex(direction), contiguous_poly(poly))
 
 
 def path_gaps(points: np.ndarray, path: np.ndarray) -> np.ndarray:
@@ -89,6 +89,12 @@ def clip_segments(
 def disc_polygon(centre: complex, radius_m: float, sides: int = 8) -> np.ndarray:
     """A regular polygon circumscribing the disc of ``radius_m`` round ``centre`` (CCW)."""
     return centre + _corners(radius_m, sides)
+
+
+def disc_corners(radius_m: float, sides: int = 8) -> np.ndarray:
+    """:func:`disc_polygon`'s corners round the origin (read-only): the polygon round a
+    centre is the centre plus these."""
+    return _corners(radius_m, sides)
 
 
 @functools.lru_cache(maxsize=64)

@@ -23,11 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.spatial.plane import worker_room
 from sim.spatial.traffic.geometry import (
     TOL_M,
     as_complex,
     clip_line,
-    disc_polygon,
+    contiguous_poly,
+    disc_corners,
     polygon_gap,
     to_segments,
     walls,
@@ -223,24 +225,18 @@ def worker_passage(
     other robot at work (``others``, their centres). The passage is the rectangle across the
     aisle through the robot, four radii long (a robot whose centre is in it is beside the one
     at work); ``passable`` if either side leaves ``lane`` (:func:`lane_m`)."""
-    shapes = list(obstacles) + [disc_polygon(o, radius_m) for o in np.asarray(others).tolist()]
-    if not shapes:
+    others = np.ascontiguousarray(others, dtype=complex).reshape(-1)
+    if not len(obstacles) and not len(others):
         return None
-    body = disc_polygon(z, radius_m)
-    gaps = [polygon_gap(body, s) for s in shapes]
-    k = int(np.argmin([g[0] for g in gaps]))
-    if not gaps[k][0] < passage_m:
+    polys = [contiguous_poly(o) for o in obstacles]
+    at = np.zeros(len(polys) + 1, dtype=np.int64)
+    at[1:] = np.cumsum([len(o) for o in polys])
+    flat = np.concatenate(polys) if polys else np.zeros(0, dtype=complex)
+    found, across, near, far = worker_room(
+        complex(z), radius_m, disc_corners(radius_m), flat, at, others, passage_m
+    )
+    if not found:
         return None
-    across = gaps[k][2] - gaps[k][1]
-    across = across / abs(across) if abs(across) > 1e-12 else 1.0 + 0j
-    room = {}
-    for sign in (-1.0, 1.0):  # away from the nearest first: that side usually leaves two lanes
-        hits = [clip_line(z, sign * across, s) for s in shapes]
-        ahead = [t0 for t0, t1 in hits if t0 <= t1 and t1 > 0.0]
-        room[sign] = min((max(t, 0.0) for t in ahead), default=np.inf) - radius_m
-        if room[sign] >= passage_m:
-            return None
-    near, far = room[1.0], room[-1.0]
     centre = z + 0.5 * (near - far) * across  # the middle of the aisle's cross-section
     half_w = 0.5 * (near + far) + radius_m
     passable = max(near, far) >= lane

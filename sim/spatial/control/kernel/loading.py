@@ -82,11 +82,11 @@ def drop_cache(where: Path) -> None:
 
 def event_kernels() -> tuple:
     """The compiled functions the world calls between control periods: the planner's
-    visibility test and all-pairs search, a path segment's free widths, the event rules'
-    geometry (``sim.spatial.plane``), the motors' control-body records, a small team's stall
-    count, the states recorded."""
+    visibility test, all-pairs search and grown obstacles, a path segment's free widths, the
+    event rules' geometry (``sim.spatial.plane``), the motors' control-body records, a small
+    team's stall count, the states recorded."""
     from sim.spatial import fleet, motors, plane, stalls
-    from sim.spatial.navigation import geodesics, segments, widths
+    from sim.spatial.navigation import geodesics, segments, shapes, widths
 
     return (
         motors.control_records,
@@ -94,6 +94,7 @@ def event_kernels() -> tuple:
         fleet.shown_now,
         segments.blocked_segments,
         geodesics.visibility_geodesics,
+        shapes.grown_shape,
         widths.segment_sides,
         widths.free_widths,
         plane.polygon_gap,
@@ -109,6 +110,7 @@ def event_kernels() -> tuple:
         plane.exit_clearances,
         plane.near_sites,
         plane.queue_scan,
+        plane.worker_room,
     )
 
 
@@ -153,7 +155,7 @@ def ensure_compiled(stream=None) -> float:
 def warm_events() -> None:
     """One call of each event kernel with the types the world passes it."""
     from sim.spatial import fleet, motors, plane, stalls
-    from sim.spatial.navigation import geodesics, segments, widths
+    from sim.spatial.navigation import geodesics, segments, shapes, widths
 
     z = np.array([0j, 1 + 0j, 1 + 1j, 1j])
     one = np.zeros(1, dtype=np.int64)
@@ -175,6 +177,7 @@ def warm_events() -> None:
         xy[:1], xy[1:], one, *box, normals, np.ones((1, 4)), np.array([4]), 1e-9
     )
     geodesics.visibility_geodesics(xy, one, one + 1)
+    shapes.grown_shape(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]), 0.35)
     widths.segment_sides(0j, 1 + 0j, one, z, one, one + 4, z, z, one, one + 4)
     widths.free_widths(z[:1], z[1:2], z, one, z, z, one, 0.2)
     plane.polygon_gap(z, z + 3)
@@ -192,6 +195,9 @@ def warm_events() -> None:
     plane.near_sites(z, four, z, 1.0, False)
     state = np.ones(4, dtype=np.int8)
     plane.queue_scan(state, 1, ends, mask, mask, mask, z, z, mask, mask, 0.0, 1.0, 1.0)
+    corner = z.copy()
+    corner.flags.writeable = False  # (as traffic.geometry.disc_corners gives them)
+    plane.worker_room(0.5 + 0.5j, 0.1, corner, z + 2, np.array([0, 4]), z[:1] + 3, 1.4)
 
 
 def warm_up() -> None:

@@ -366,6 +366,6 @@ print(json.dumps([before, after, loading.events_cached()]))
         [sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=True
     )
     before, after, cached = json.loads(out.stdout.strip().splitlines()[-1])
-    assert len(before) == 20 and all(n == 1 for n in before.values()), before
+    assert len(before) == 22 and all(n == 1 for n in before.values()), before
     assert after == before
     assert cached

@@ -14,16 +14,19 @@ from sim.spatial.traffic.geometry import (
     as_complex,
     clip_line,
     clip_segments,
+    disc_polygon,
     polygon_gap,
     walls,
 )
 from sim.spatial.traffic.passages import (
+    Passage,
     find_passages,
     lane_m,
     pair_passage,
     two_lanes_m,
     worker_passage,
 )
+from tests.golden.cases import in_baseline_child
 
 R, MARGIN, CLEAR = 0.25, 0.05, 0.1
 TWO_LANES = two_lanes_m(R, MARGIN, CLEAR)
@@ -160,3 +163,82 @@ def test_a_robot_at_work_on_open_floor_makes_no_passage():
     assert (
         worker_passage(0, 5 + 5j, R, walls(10, 10), np.zeros(0, complex), TWO_LANES, LANE) is None
     )
+
+
+def worker_passage_reference(worker, z, radius_m, obstacles, others, passage_m, lane):
+    """:func:`worker_passage` in plain Python over the compiled gap and clip of one polygon
+    each (the compiled :func:`sim.spatial.plane.worker_room` is checked against it)."""
+    shapes = list(obstacles) + [disc_polygon(o, radius_m) for o in np.asarray(others).tolist()]
+    if not shapes:
+        return None
+    body = disc_polygon(z, radius_m)
+    gaps = [polygon_gap(body, s) for s in shapes]
+    k = int(np.argmin([g[0] for g in gaps]))
+    if not gaps[k][0] < passage_m:
+        return None
+    across = gaps[k][2] - gaps[k][1]
+    across = across / abs(across) if abs(across) > 1e-12 else 1.0 + 0j
+    room = {}
+    for sign in (-1.0, 1.0):
+        hits = [clip_line(z, sign * across, s) for s in shapes]
+        ahead = [t0 for t0, t1 in hits if t0 <= t1 and t1 > 0.0]
+        room[sign] = min((max(t, 0.0) for t in ahead), default=np.inf) - radius_m
+        if room[sign] >= passage_m:
+            return None
+    near, far = room[1.0], room[-1.0]
+    centre = z + 0.5 * (near - far) * across
+    half_w = 0.5 * (near + far) + radius_m
+    passable = max(near, far) >= lane
+    return Passage(
+        centre, 1j * across, 2.0 * radius_m, half_w, float(max(near, far)), worker, passable
+    )
+
+
+def worker_cases(seed: int, n: int = 400):
+    """(got, want) pairs of passages for robots at work in random aisles: two shelves (a gap
+    of 0.8-4 m, at any angle), a robot at work in the aisle, 0-2 others near it, half of
+    the cases on a 0.05 m grid (equal distances); walls only in some."""
+    rng = np.random.default_rng(seed)
+    for c in range(n):
+        grid = c % 2 == 0
+        gap = rng.uniform(0.8, 4.0)
+        turn = np.exp(1j * rng.uniform(0, 2 * np.pi)) if c % 3 else 1.0 + 0j
+        a = np.array([0, 10, 10 + 1j, 1j]) - 1j
+        b = np.array([0, 10, 10 + 1j, 1j]) + gap * 1j
+        shelves = [5 + 5j + (s - 5 - 0.5j) * turn for s in (a, b)]
+        z = 5 + 5j + (rng.uniform(-2, 2) + rng.uniform(0.3, gap - 0.3) * 1j - 0.5j) * turn
+        others = z + rng.uniform(-1.5, 1.5, rng.integers(0, 3)) * 1j * turn
+        others = others + rng.uniform(-0.3, 0.3, len(others))
+        if grid:
+            shelves = [np.round(s / 0.05) * 0.05 for s in shelves]
+            z, others = np.round(z / 0.05) * 0.05, np.round(others / 0.05) * 0.05
+        obstacles = shelves + (walls(10, 10) if c % 5 == 0 else [])
+        obstacles = [np.ascontiguousarray(o, dtype=complex) for o in obstacles]
+        for far_off in (others, others[:0]):
+            args = (c, complex(z), R, obstacles, far_off, TWO_LANES, LANE)
+            yield worker_passage(*args), worker_passage_reference(*args)
+
+
+def worker_mismatches(seed: int) -> list[int]:
+    """[cases, passages found, cases whose passage differs from the reference's in a field
+    or a bit]."""
+    tally = [0, 0, 0]
+    for got, want in worker_cases(seed):
+        tally[0] += 1
+        tally[1] += want is not None
+        tally[2] += repr(got) != repr(want)
+    return tally
+
+
+def test_worker_passage_is_the_python_reference_s():
+    """The compiled room round a robot at work gives the reference's passage in every case,
+    field for field (repr: every float's digits), and the cases reach both answers."""
+    cases, found, differ = worker_mismatches(0)
+    assert differ == 0
+    assert 0.1 * cases < found < 0.9 * cases
+
+
+def test_worker_passage_is_the_reference_s_bit_for_bit_with_baseline_kernels():
+    """The same in a child Python with numpy's baseline kernels (the golden runs')."""
+    tallies = in_baseline_child(__file__, "[ns['worker_mismatches'](s) for s in (1, 2)]")
+    assert all(differ == 0 and found > 0 for _, found, differ in tallies)

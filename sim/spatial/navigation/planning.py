@@ -605,13 +605,7 @@ class GridPlanner:
                 return np.zeros((0, 2))
             dist, last = self.goal_field(g)
             lower = np.linalg.norm(self.vertices_ - s, axis=1) + dist
-            u = -1  # the first vertex visible from s, in order of the cost through it
-            for k in np.argsort(lower).tolist():
-                if not np.isfinite(lower[k]):
-                    break
-                if not self.blocked_one(sx, sy, *self.vertices_[k].tolist()):
-                    u = k
-                    break
+            u = self._first_seen(s, lower)
             if u < 0:
                 return np.zeros((0, 2))
             chain = [int(last[u])]
@@ -622,6 +616,25 @@ class GridPlanner:
         if snapped and np.linalg.norm(goal - g) > 0:
             pts.append(goal)
         return np.array(pts)
+
+    def _first_seen(self, s: np.ndarray, lower: np.ndarray) -> int:
+        """The first vertex visible from ``s`` in order of ``lower`` (the cost through each,
+        ``np.argsort``'s order), of those with a finite cost; -1 if none. Tested a few at a
+        time (:meth:`blocked`), as :meth:`_first_visible` does for many points."""
+        order = np.argsort(lower)
+        start, size = 0, _FIRST_BATCH
+        while start < len(order):
+            cand = order[start : start + size]
+            finite = np.isfinite(lower[cand])  # (a prefix: the order is ascending)
+            cand = cand[finite]
+            if len(cand):
+                seen = ~self.blocked(np.broadcast_to(s, (len(cand), 2)), self.vertices_[cand])
+                if seen.any():
+                    return int(cand[np.argmax(seen)])
+            if not finite.all():
+                break
+            start, size = start + size, size * 4
+        return -1
 
     def path_around(
         self, start_xy, goal_xy, robots: np.ndarray, radius_m: float, reuse: bool = True

@@ -229,6 +229,35 @@ def test_blocked_in_small_chunks_decides_as_in_one():
     assert single == whole.tolist()
 
 
+@pytest.mark.parametrize("obstacles", [(BOX, TRIANGLE), FIELD])
+def test_the_first_vertex_seen_is_the_one_by_one_scan_s(obstacles):
+    """A path leaves through the first vertex visible from its start in order of the cost
+    through it: tested a batch at a time, it is the vertex a scan one by one
+    (``blocked_one``) finds, with ties in the cost, unreachable vertices (inf) and starts that
+    see none."""
+    planner = GridPlanner(spatial(obstacles))
+    v = planner.vertices_
+    rng = np.random.default_rng(3)
+    starts = rng.uniform(0.5, 19.5, size=(300, 2))
+    starts[:40] = v[rng.integers(0, len(v), 40)]  # on a vertex: it sees itself
+    found = set()
+    for k, s in enumerate(starts):
+        lower = np.round(rng.uniform(0, 30, len(v)), 0 if k % 2 else 6)  # ties in half
+        lower[rng.random(len(v)) < (0.9 if k % 7 == 0 else 0.2)] = np.inf
+        want = -1
+        for u in np.argsort(lower).tolist():
+            if not np.isfinite(lower[u]):
+                break
+            if not planner.blocked_one(*s.tolist(), *v[u].tolist()):
+                want = u
+                break
+        got = planner._first_seen(s, lower)
+        assert got == want
+        found.add("none" if want < 0 else "late" if (lower < lower[want]).sum() >= 8 else "early")
+    assert found >= {"none", "early"}
+    assert "late" in found or len(v) < 40  # past the first batch where there are many
+
+
 def _same_graph(a: GridPlanner, b: GridPlanner) -> None:
     np.testing.assert_array_equal(a.vertices_, b.vertices_)
     np.testing.assert_array_equal(a.seen_, b.seen_)

@@ -18,6 +18,7 @@ aisle (``passable`` False): robots wait before it rather than beside it.
 from __future__ import annotations
 
 import functools
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -225,13 +226,12 @@ def worker_passage(
     other robot at work (``others``, their centres). The passage is the rectangle across the
     aisle through the robot, four radii long (a robot whose centre is in it is beside the one
     at work); ``passable`` if either side leaves ``lane`` (:func:`lane_m`)."""
-    others = np.ascontiguousarray(others, dtype=complex).reshape(-1)
+    others = contiguous_poly(others)  # (centres: a contiguous complex array as well)
     if not len(obstacles) and not len(others):
         return None
     polys = [contiguous_poly(o) for o in obstacles]
-    at = np.zeros(len(polys) + 1, dtype=np.int64)
-    at[1:] = np.cumsum([len(o) for o in polys])
-    flat = np.concatenate(polys) if polys else np.zeros(0, dtype=complex)
+    at = np.array([0, *itertools.accumulate(map(len, polys))], dtype=np.int64)
+    flat = np.concatenate(polys) if polys else others[:0]
     found, across, near, far = worker_room(
         complex(z), radius_m, disc_corners(radius_m), flat, at, others, passage_m
     )

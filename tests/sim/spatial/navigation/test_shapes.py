@@ -4,6 +4,7 @@ the numpy functions it replaces in the planner (``planning.inflate``, ``planning
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from sim.spatial.navigation.planning import GridPlanner, halfplanes, inflate
 from sim.spatial.navigation.shapes import grown_shape
@@ -52,6 +53,7 @@ def test_grown_shapes_are_the_numpy_functions_to_the_last_bit():
     assert values > 10_000 and bevelled > 100
 
 
+@pytest.mark.slow  # a child Python: about 3 s
 def test_grown_shapes_are_the_numpy_functions_with_baseline_kernels():
     """The same in a child Python with numpy's baseline kernels (the golden runs')."""
     tallies = in_baseline_child(__file__, "[ns['shape_mismatches'](s) for s in (1, 2)]")

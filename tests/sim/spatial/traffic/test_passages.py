@@ -238,6 +238,7 @@ def test_worker_passage_is_the_python_reference_s():
     assert 0.1 * cases < found < 0.9 * cases
 
 
+@pytest.mark.slow  # a child Python: about 3 s
 def test_worker_passage_is_the_reference_s_bit_for_bit_with_baseline_kernels():
     """The same in a child Python with numpy's baseline kernels (the golden runs')."""
     tallies = in_baseline_child(__file__, "[ns['worker_mismatches'](s) for s in (1, 2)]")

@@ -6,7 +6,8 @@ an octagon for every robot it plans round, once per robot position; in numpy tha
 calls on arrays of eight rows. The arithmetic here is numpy's, term by term and in the same
 order (no fused multiply-add: numba fuses only with ``fastmath``), so the grown corners, normals
 and offsets are the numpy functions' bit for bit (tests/sim/spatial/navigation/test_shapes.py),
-which the numpy functions stay to check.
+which the numpy functions stay to check. A degenerate polygon (a corner repeated) gives
+numpy's NaNs, not an error (``error_model="numpy"``: IEEE division, as numpy divides).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numba
 import numpy as np
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _halfplanes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``planning.halfplanes``: outward unit normals (E, 2) and offsets (E,) of a convex CCW
     polygon (E, 2)."""
@@ -36,7 +37,7 @@ def _halfplanes(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return normal, offset
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def grown_shape(poly: np.ndarray, d_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A convex CCW polygon (P, 2) grown by ``d_m`` > 0 (``planning.inflate``: edges moved out,
     corners sharper than 90 degrees bevelled), with the grown polygon's outward unit normals

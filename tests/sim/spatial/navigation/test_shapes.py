@@ -74,3 +74,16 @@ def test_a_planner_grows_a_box_as_inflate_does():
     assert offset.tobytes() == want_offset.tobytes()
     assert [list(e[:2]) for e in edges] == want_normal.tolist()
     assert lo == want.min(axis=0).tolist() and hi == want.max(axis=0).tolist()
+
+
+def test_a_repeated_corner_gives_numpy_s_nans_not_an_error():
+    """A polygon with a corner repeated has an edge of no length: numpy's functions divide by
+    zero there (NaN, with a warning), and so does the compiled one, to the same bits."""
+    poly = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        want = inflate(poly, 0.35)
+        want = (want, *halfplanes(want))
+    got = grown_shape(poly, 0.35)
+    assert np.isnan(want[0]).any()
+    for g, w in zip(got, want, strict=True):
+        assert g.shape == w.shape and g.tobytes() == w.tobytes()

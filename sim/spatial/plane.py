@@ -1,8 +1,9 @@
 """The event rules' plane geometry on small arrays, compiled: the gap between two convex
 polygons, a line clipped to one, the distance from points to a path and whether a way passes
-near them, the robots at work near others and the obstacles near each, how long a robot would
-wait for robots at work on its way, a robot's free place at its site, the site queues' look
-at the fleet, and a robot's ways out of a site and the robots coming to it.
+near them, the robots at work near others and the obstacles near each, the room in the aisle
+beside a robot at work, how long a robot would wait for robots at work on its way, a robot's
+free place at its site, the site queues' look at the fleet, and a robot's ways out of a site
+and the robots coming to it.
 
 The traffic rules (``sim.spatial.traffic``), look-ahead (``sim.spatial.jams``) and the site
 queues (``sim.spatial.sites``) ask these questions many times per event, on arrays of a few
@@ -13,7 +14,9 @@ complex product is ``(ar br - ai bi, ar bi + ai br)``, a complex modulus is
 ``l * sqrt(1 + (s / l)^2)`` of the larger and smaller part, and nothing is fused (numba fuses
 a multiply and an add only with ``fastmath``). So the answers are numpy's bit for bit there
 (tests/sim/spatial/test_plane.py); with numpy's AVX2 kernels, which fuse, numpy's own last
-bits differ from these.
+bits differ from these. :func:`worker_room` replaces Python code on complex scalars and copies
+Python's arithmetic instead (its modulus is the C library's ``hypot``;
+tests/sim/spatial/traffic/test_passages.py).
 
 numba caches the compiled functions beside this module (``__pycache__``); a cold cache costs
 a few seconds, once.

@@ -129,12 +129,13 @@ def worker_room(
 ) -> tuple[bool, complex, float, float]:
     """``passages.worker_passage``'s geometry for a robot at work at ``z`` (its body
     ``z + corner``): the shapes are the polygons ``flat[at[s]:at[s + 1]]`` and a polygon
-    ``o + corner`` round each of ``others``. The line across (from the body to the nearest
-    shape, a unit vector) and the free room on its far and near side, beyond the body; False
-    (no passage) if the nearest shape is ``passage_m`` or more away or a side leaves that
-    much. The arithmetic on complex scalars is Python's (a complex times or over a float as
-    a complex with no imaginary part; ``abs`` the C library's ``hypot``), as in the Python
-    function, so the answers are its bit for bit."""
+    ``o + corner`` round each of ``others``. Returns (True, across, near, far): the line
+    across (a unit vector from the body toward the nearest shape) and the free room beyond the
+    body toward that shape and away from it; (False, ...) (no passage) if the nearest shape is
+    ``passage_m`` or more away or a side leaves that much. The arithmetic on complex scalars
+    is Python's (a complex times or over a float as a complex with no imaginary part; ``abs``
+    the C library's ``hypot``), as in the Python function, so the answers are its bit for
+    bit."""
     nc, ns = len(corner), len(at) - 1
     n = ns + len(others)
     body = np.empty(nc, dtype=np.complex128)

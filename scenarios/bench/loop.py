@@ -36,9 +36,14 @@ ROUND_S = 10.0  # with an allocator: a round of announcements and an auction thi
 
 
 def _run(
-    world: PymunkWorld, sim_s: float, rng: np.random.Generator, allocate=None
+    world: PymunkWorld,
+    sim_s: float,
+    rng: np.random.Generator,
+    allocate=None,
+    clock=time.perf_counter,
 ) -> tuple[int, float]:
-    """Keep the robots busy for ``sim_s`` simulated seconds; (physics steps, wall seconds).
+    """Keep the robots busy for ``sim_s`` simulated seconds; (physics steps, wall seconds by
+    ``clock``).
 
     Without ``allocate`` every simulated second each free robot is sent to a random site.
     With it, rounds come every ``ROUND_S`` as in the task protocol: as many tasks as there
@@ -47,7 +52,7 @@ def _run(
     sites = np.asarray(world.spatial.sites[0], dtype=float)
     next_id = 0
     steps0 = world.steps_
-    wall0 = time.perf_counter()
+    wall0 = clock()
     step_s = 1.0 if allocate is None else ROUND_S
     while world.time_s < sim_s - 1e-9:
         free = np.flatnonzero(world.task_ < 0)
@@ -63,19 +68,20 @@ def _run(
                 won = np.maximum(assignment, 0)
                 world.apply(batch, assignment, bids[won, np.arange(free.size)])
         world.advance(min(step_s, sim_s - world.time_s))
-    return world.steps_ - steps0, time.perf_counter() - wall0
+    return world.steps_ - steps0, clock() - wall0
 
 
 def bench_sim(
     sizes: tuple[int, ...] = (10, 100, 1000),
     sim_seconds: float | dict[int, float] | None = None,
-    rng: np.random.Generator | None = None,
+    seed: int = 0,
     control_hz: float = 10.0,
     allocator=None,
     avoidance: str = "none",
     control: str = "auto",
     traffic: str = "on",
     timed: bool = True,
+    clock=time.perf_counter,
 ) -> dict[str, dict[str, float]]:
     """Measure the pymunk world's speed for each robot count.
 
@@ -83,7 +89,10 @@ def bench_sim(
         sizes: robot counts.
         sim_seconds: simulated seconds per size (one number for all, a dict, or None for
             ``DEFAULT_SIM_S``).
-        rng: task sites and assignments; ``default_rng(0)`` if None.
+        seed: each size's arena, task sites and tasks come from ``default_rng([seed, n])``
+            (the same for every ``avoidance`` and ``traffic``, whatever ran before), the
+            figures' samples (:func:`replan_report`, :func:`field_report`, :func:`_bids_ms`)
+            from ``default_rng([seed, n, 1])``.
         control_hz: control rate (physics runs at 60 Hz).
         allocator: ``allocator(scenario, world)`` returns the ``allocate(batch)`` callable of
             :func:`_run` (the auction), or None to hand tasks out in order.
@@ -92,6 +101,8 @@ def bench_sim(
         control: the world's control period (``PymunkWorld``'s ``control``).
         timed: time the parts of the loop (:func:`timed_parts` and the others) while it runs;
             False leaves the loop as users run it (the timers' keys are then absent).
+        clock: the loop's wall clock (seconds; ``Relay.clock`` when loops take turns,
+            ``scenarios.bench.relay``).
 
     Returns:
         ``{str(n): {"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
@@ -119,9 +130,9 @@ def bench_sim(
         with avoidance, :func:`replan_report`; if the planner built its distance field,
         :func:`field_report`.
     """
-    rng = np.random.default_rng(0) if rng is None else rng
     out = {}
     for n in sizes:
+        rng, sample = np.random.default_rng([seed, n]), np.random.default_rng([seed, n, 1])
         if sim_seconds is None:
             sim_s = DEFAULT_SIM_S.get(n, max(10.0, 12000.0 / n))
         else:
@@ -144,7 +155,7 @@ def bench_sim(
         touching0 = world.contacts.steps_touching
         counts0 = dict(getattr(allocate, "timings_", {}))
         with loop_timers(type(world.control), timed) as timers:
-            steps, wall = _run(world, world.time_s + sim_s, rng, allocate)
+            steps, wall = _run(world, world.time_s + sim_s, rng, allocate, clock)
         counts = {k: v - counts0.get(k, 0) for k, v in getattr(allocate, "timings_", {}).items()}
         share = (world.contacts.steps_touching - touching0) / steps
         bare = bare_step_time(world, max(60, steps // 4))
@@ -154,7 +165,7 @@ def bench_sim(
             bare10 = bare_step_time(world, max(60, steps // 4))
         finally:
             world.contacts.free_iterations = free
-        bids_ms = _bids_ms(world, rng)
+        bids_ms = _bids_ms(world, sample)
         calib = calibration_step_s(n, max(60, min(steps // 4, 600)))
         out[str(n)] = {
             "steps_per_s": steps / wall,
@@ -177,9 +188,9 @@ def bench_sim(
             out[str(n)]["round_bids_ms"] = 1e3 * counts["bids_s"] / rounds
             out[str(n)]["round_auction_ms"] = 1e3 * counts["auction_s"] / rounds
         if avoidance != "none":
-            out[str(n)].update(replan_report(world, rng))
+            out[str(n)].update(replan_report(world, sample))
         if world.planner.field_ is not None:
-            out[str(n)].update(field_report(world.planner, world.poses()[0], rng))
+            out[str(n)].update(field_report(world.planner, world.poses()[0], sample))
     return out
 
 

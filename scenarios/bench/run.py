@@ -30,9 +30,10 @@
   against LAPJV (``lapx``, when installed) on the spatial rounds' matrices at 100 to 2000
   bidders (``bench_assignment``).
 
-Machines here are shared and noisy: compare the ratios, not the absolute times. ``--repeat N``
-times the ``sim`` part's three loops in turn N times and keeps each loop's quickest round; the
-price of every round is reported beside it.
+Machines here are shared and noisy: compare the ratios, not the absolute times. The ``sim``
+part's three loops of an arena run side by side in turns of a few tens of milliseconds
+(``scenarios.bench.relay``), so a slow spell falls on all three alike; ``--repeat N`` runs them
+N times, keeps each loop's quickest round and reports the price of every round beside it.
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ PRICE_LABELS = {
     "rest": "the rest",
 }
 PAPER_SETS = 8  # task sets of paper_spatial timed by the 10-robot figure (about 3,400 s simulated)
+SIM_SIZES = (10, 100, 1000)  # robots in the sim part's busy synthetic arenas
 
 
 class PlannedMarket:
@@ -90,11 +92,14 @@ def bench_paper_loop(
     avoidance: str = "none",
     traffic: str = "on",
     timed: bool = True,
+    clock=None,
 ) -> dict[str, float]:
     """The 10-robot paper scenario through the whole loop of ``mrta run`` (with
     ``[spatial] avoidance`` set to ``avoidance`` and ``[spatial.traffic] rules`` to
     ``traffic``), against bare ``space.step`` on the same bodies afterwards; with ``timed``
-    the parts of the loop are timed too (``scenarios.bench.loop.loop_timers``).
+    the parts of the loop are timed too (``scenarios.bench.loop.loop_timers``). ``clock``:
+    the loop's wall clock (``time.perf_counter`` if None; ``Relay.clock`` when loops take
+    turns, ``scenarios.bench.relay``).
 
     Returns:
         ``{"steps_per_s", "rtf", "s_per_robot_h", "calib_ratio", "calib_step_us",
@@ -117,11 +122,12 @@ def bench_paper_loop(
     scenario, stream, world, cost, allocator, rng = build_run(spec)
     recorder = TrajectoryRecorder.for_scenario(scenario)
     world.recorder = recorder
+    clock = time.perf_counter if clock is None else clock
     steps0 = world.steps_
-    t0 = time.perf_counter()
+    t0 = clock()
     with loop_timers(type(world.control), timed) as timers:
         run_protocol(scenario, stream, allocator, world, cost, rng, trace=False, recorder=recorder)
-    wall = time.perf_counter() - t0
+    wall = clock() - t0
     steps = world.steps_ - steps0
     bare = bare_step_time(world, max(60, steps // 4))
     n = scenario.n_robots
@@ -293,40 +299,74 @@ def run_bench(parts=PARTS, progress: bool = True, repeat: int = 1, split: bool =
     return out
 
 
-def bench_sim_part(say, repeat: int = 1, split: bool = False) -> dict:
+def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -> dict:
     """The ``sim`` part: the loops without avoidance, with ORCA and the traffic rules (the
     defaults), and with ORCA alone (rules off), and what avoidance costs.
 
-    ``repeat`` rounds, each timing the three loops in turn (so a slow spell of a shared machine
-    falls on all three alike), as users run them: no timer inside. Each loop's figures are
-    those of its quickest round (wall time per simulated second; interference only ever slows
-    a run down). A price is a ratio of two loops of one round: that of the median round (by
-    the price with the rules; of the two middle rounds the lower), whose ORCA-alone price is
-    given with it; the busy arena's from its own median round. Taken from the loops' quickest
-    rounds, a price would mix rounds, and on a machine whose speed drifts for minutes it can
-    lie outside every round's own. ``avoidance_price[n]["price_rounds"]`` keeps the price of
-    each round, whose spread shows how far one round can be trusted.
+    ``repeat`` rounds. In each, the three loops of an arena (the busy arenas of ``sizes``
+    robots, then the paper scenario) run side by side in turns of a few tens of
+    milliseconds (``scenarios.bench.relay``: one at a time, each timed by its own turns), so
+    the swings of a shared machine's speed fall on all three alike, and as users run them:
+    no timer inside. Each loop's figures are those of its quickest round (wall time per
+    simulated second; interference only ever slows a run down). A price is a ratio of two
+    loops of one round: that of the median round (by the price with the rules; of the two
+    middle rounds the lower), whose ORCA-alone price is given with it; the busy arena's from
+    its own median round. Taken from the loops' quickest rounds, a price would mix rounds.
+    ``avoidance_price[n]["price_rounds"]`` keeps the price of each round, whose spread shows
+    how far one round can be trusted.
 
     ``split``: one round more, its loops timed part by part
-    (``scenarios.bench.loop.loop_timers``), splits the price into the parts of the control
+    (``scenarios.bench.loop.loop_timers``) and run one after the other (the timers replace
+    methods of classes the loops share), splits the price into the parts of the control
     period and the physics steps (``avoidance_price[n]["price_parts"]``, with that round's own
     price, ``timed_price``) and gives each loop's control period and physics steps in
     calibration steps. The timers slow the loop with avoidance more than the one without,
     which is why the price is not taken from that round."""
+    import functools
+    import time
+
     from scenarios.bench.loop import TIMED_PARTS, bench_sim
+    from scenarios.bench.relay import Relay
+    from sim.spatial.world import PymunkWorld
 
     say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
     runs = (("sim", "none", "on"), ("sim_orca", "orca", "on"), ("sim_orca_alone", "orca", "off"))
 
+    def three(loop, timed: bool) -> list[dict]:
+        """``loop(avoidance, traffic, clock)`` of each run: in turns, or timed one by one."""
+        if timed:
+            return [loop(avoidance, traffic, time.perf_counter) for _, avoidance, traffic in runs]
+        relay = Relay()
+        jobs = [
+            functools.partial(loop, avoidance, traffic, relay.clock)
+            for _, avoidance, traffic in runs
+        ]
+        with relay.ticking(PymunkWorld, "_control"):  # a turn may end after a control period
+            return relay.run(jobs)
+
     def one_round(timed: bool) -> dict:
-        got = {}
-        for key, avoidance, traffic in runs:
-            synthetic = bench_sim(
-                allocator=PlannedMarket, avoidance=avoidance, traffic=traffic, timed=timed
-            )
-            paper = bench_paper_loop(avoidance=avoidance, traffic=traffic, timed=timed)
-            paper.update({f"busy_{k}": v for k, v in synthetic.pop("10").items()})
-            got[key] = {"10": paper, **synthetic}
+        got: dict[str, dict] = {key: {} for key, _, _ in runs}
+        for n in sizes:
+
+            def synthetic(avoidance, traffic, clock, n=n):
+                return bench_sim(
+                    sizes=(n,),
+                    allocator=PlannedMarket,
+                    avoidance=avoidance,
+                    traffic=traffic,
+                    timed=timed,
+                    clock=clock,
+                )[str(n)]
+
+            for (key, _, _), row in zip(runs, three(synthetic, timed), strict=True):
+                got[key][str(n)] = row
+
+        def paper(avoidance, traffic, clock):
+            return bench_paper_loop(avoidance=avoidance, traffic=traffic, timed=timed, clock=clock)
+
+        for (key, _, _), row in zip(runs, three(paper, timed), strict=True):
+            row.update({f"busy_{k}": v for k, v in got[key]["10"].items()})
+            got[key]["10"] = row
         return got
 
     rounds: list[dict] = []

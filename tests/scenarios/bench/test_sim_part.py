@@ -34,18 +34,18 @@ def test_the_sim_part_prices_avoidance_with_and_without_the_rules(monkeypatch):
             "control_calib_ratio": 1.0, "bare_ratio": 1.0,
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):
+    def fake_sim(sizes, allocator=None, avoidance="none", traffic="on", timed=True, clock=None):
         assert not timed  # the price comes from loops as users run them
-        return {str(n): row(avoidance, traffic, 2.0) for n in (10, 100)}
+        return {str(n): row(avoidance, traffic, 2.0) for n in sizes}
 
-    def fake_paper(avoidance, traffic, timed=True):
+    def fake_paper(avoidance, traffic, timed=True, clock=None):
         assert not timed
         return row(avoidance, traffic)
 
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
     monkeypatch.setattr(run, "bench_paper_loop", fake_paper)
     lines = []
-    out = run.bench_sim_part(lines.append)
+    out = run.bench_sim_part(lines.append, sizes=(10, 100))
     assert set(seen) == set(wall)
     assert out["avoidance_price"]["10"] == {
         "price": pytest.approx(1.5),
@@ -83,12 +83,13 @@ def test_repeated_rounds_take_each_loops_quickest_round_and_the_median_rounds_pr
             "bare_ratio": 1.0, **(extra or {}),
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):
-        k = sum(1 for s in seen if s == ("sim", avoidance, traffic))
-        seen.append(("sim", avoidance, traffic))
-        return {"10": row(busy[avoidance, traffic][k]), "100": row(walls[avoidance, traffic][k])}
+    def fake_sim(sizes, allocator=None, avoidance="none", traffic="on", timed=True, clock=None):
+        (n,) = sizes  # one arena at a time, its three loops side by side
+        k = sum(1 for s in seen if s == (f"sim{n}", avoidance, traffic))
+        seen.append((f"sim{n}", avoidance, traffic))
+        return {str(n): row((busy if n == 10 else walls)[avoidance, traffic][k])}
 
-    def fake_paper(avoidance, traffic, timed=True):
+    def fake_paper(avoidance, traffic, timed=True, clock=None):
         k = sum(1 for s in seen if s == ("paper", avoidance, traffic))
         seen.append(("paper", avoidance, traffic))
         return row(walls[avoidance, traffic][k], {"round": k})
@@ -96,8 +97,9 @@ def test_repeated_rounds_take_each_loops_quickest_round_and_the_median_rounds_pr
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
     monkeypatch.setattr(run, "bench_paper_loop", fake_paper)
     lines = []
-    out = run.bench_sim_part(lines.append, repeat=3)
-    assert [s[1:] for s in seen[::2]] == [("none", "on"), ("orca", "on"), ("orca", "off")] * 3
+    out = run.bench_sim_part(lines.append, repeat=3, sizes=(10, 100))
+    assert [s[1:] for s in seen] == [("none", "on"), ("orca", "on"), ("orca", "off")] * 9
+    assert [s[0] for s in seen[::3]] == ["sim10", "sim100", "paper"] * 3
     p10 = out["avoidance_price"]["10"]
     assert p10["price"] == pytest.approx(2.4 / 2.2)
     assert p10["orca_alone_price"] == pytest.approx(3.0 / 2.2)
@@ -154,13 +156,16 @@ def test_the_price_is_split_into_the_parts_of_the_control_period(monkeypatch):
             "parts_s": dict(parts[avoidance, traffic]),
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):
+    def fake_sim(sizes, allocator=None, avoidance="none", traffic="on", timed=True, clock=None):
         return {"10": row(avoidance, traffic, timed)}
 
+    def fake_paper(avoidance, traffic, timed=True, clock=None):
+        return row(avoidance, traffic, timed)
+
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
-    monkeypatch.setattr(run, "bench_paper_loop", row)
+    monkeypatch.setattr(run, "bench_paper_loop", fake_paper)
     lines = []
-    out = run.bench_sim_part(lines.append, split=True)
+    out = run.bench_sim_part(lines.append, split=True, sizes=(10,))
     assert seen == [False] * 6 + [True] * 6  # the untimed round, then the timed one
     p10 = out["avoidance_price"]["10"]
     assert p10["price"] == pytest.approx(2.4)
@@ -191,7 +196,7 @@ def test_of_two_middle_rounds_the_lower_price_is_taken(monkeypatch):
     2.8 s against 2 s without): the price is 1.4, the lower of the two middle ones."""
     with_rules = iter([3.2, 2.4, 4.0, 2.8])
 
-    def row(avoidance, traffic, timed=True, wall=2.0):
+    def row(avoidance, traffic, timed=True, wall=2.0, clock=None):
         if (avoidance, traffic) == ("orca", "on"):
             wall = next(with_rules)
         return {
@@ -199,12 +204,12 @@ def test_of_two_middle_rounds_the_lower_price_is_taken(monkeypatch):
             "calib_ratio": 1.0, "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0,
         }  # fmt: skip
 
-    def fake_sim(allocator=None, avoidance="none", traffic="on", timed=True):  # busy arena: 1.0
-        return {"10": row("none", "on")}
+    def fake_sim(sizes, allocator=None, avoidance="none", traffic="on", timed=True, clock=None):
+        return {"10": row("none", "on")}  # busy arena: 1.0
 
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
     monkeypatch.setattr(run, "bench_paper_loop", row)
-    out = run.bench_sim_part(lambda line: None, repeat=4)
+    out = run.bench_sim_part(lambda line: None, repeat=4, sizes=(10,))
     p10 = out["avoidance_price"]["10"]
     assert p10["price_rounds"] == pytest.approx([1.6, 1.2, 2.0, 1.4])
     assert p10["price"] == pytest.approx(1.4)
@@ -214,9 +219,9 @@ def test_one_round_reports_no_round_prices(monkeypatch):
     row = {"wall_s": 1.0, "sim_s": 10.0, "rtf": 10.0, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
            "calib_step_us": 1.0, "control_calib_ratio": 1.0, "bare_ratio": 1.0}  # fmt: skip
     monkeypatch.setattr(loop, "bench_sim", lambda **kw: {"10": dict(row)})
-    monkeypatch.setattr(run, "bench_paper_loop", lambda avoidance, traffic, timed: dict(row))
+    monkeypatch.setattr(run, "bench_paper_loop", lambda **kw: dict(row))
     lines = []
-    out = run.bench_sim_part(lines.append)
+    out = run.bench_sim_part(lines.append, sizes=(10,))
     assert "price_rounds" not in out["avoidance_price"]["10"]
     assert "price_parts" not in out["avoidance_price"]["10"]
     assert not any("round" in line or "best of" in line or "split" in line for line in lines)
@@ -288,3 +293,82 @@ def test_an_untimed_loop_has_no_timer_in_it_and_reports_none_of_their_figures(mo
     assert seen[1] == own and seen[3] != own  # (each size: a warm-up run, then the timed one)
     assert not timer_keys & set(off) and timer_keys <= set(on)
     assert {"wall_s", "sim_s", "rtf", "calib_ratio", "bare_ratio"} <= set(off)
+
+
+def test_untimed_rounds_run_each_arenas_loops_in_turns_and_the_timed_round_one_by_one(
+    monkeypatch,
+):
+    """The rounds the prices come from run an arena's three loops through a relay (each timed
+    by the relay's clock, the world's control period passing the turn); the timed round runs
+    them one after the other on the plain clock, the world's control period its own."""
+    import time
+
+    from scenarios.bench.relay import Relay
+    from sim.spatial.world import PymunkWorld
+
+    own = PymunkWorld.__dict__["_control"]
+    row = {"wall_s": 1.0, "sim_s": 10.0, "rtf": 10.0, "s_per_robot_h": 1.0, "calib_ratio": 1.0,
+           "calib_step_us": 1.0, "control_calib_ratio": 1.0, "physics_calib_ratio": 1.0,
+           "bare_ratio": 1.0, "parts_s": dict.fromkeys(loop.TIMED_PARTS, 0.0)}  # fmt: skip
+    calls = []
+
+    def record(timed, clock):
+        relay = getattr(clock, "__self__", None)
+        calls.append((timed, isinstance(relay, Relay), PymunkWorld.__dict__["_control"] is own))
+        if clock is not time.perf_counter:
+            assert relay is not None and clock == relay.clock
+        return dict(row)
+
+    def fake_sim(sizes, allocator=None, avoidance="none", traffic="on", timed=True, clock=None):
+        return {str(n): record(timed, clock) for n in sizes}
+
+    monkeypatch.setattr(loop, "bench_sim", fake_sim)
+    monkeypatch.setattr(run, "bench_paper_loop", lambda timed, clock, **kw: record(timed, clock))
+    run.bench_sim_part(lambda line: None, split=True, sizes=(10, 100))
+    assert calls == [(False, True, False)] * 9 + [(True, False, True)] * 9
+    assert PymunkWorld.__dict__["_control"] is own
+
+
+def test_each_size_has_its_own_arena_whatever_ran_before(monkeypatch):
+    """An arena's sites and first tasks come from a stream of its own size: the same with and
+    without avoidance, run alone or after another size (the re-plan figures with avoidance,
+    drawn from the shared stream, made the 100 and 1000 robot arenas differ)."""
+    sites = []
+    real = loop.bench_scenario
+
+    def spy(n, rng, **kwargs):
+        scenario = real(n, rng, **kwargs)
+        sites.append((n, np.asarray(scenario.spatial.sites[0]).tobytes()))
+        return scenario
+
+    monkeypatch.setattr(loop, "bench_scenario", spy)
+    loop.bench_sim(sizes=(10, 20), sim_seconds=1.0, avoidance="orca", timed=False)
+    loop.bench_sim(sizes=(20,), sim_seconds=1.0, avoidance="none", timed=False)
+    loop.bench_sim(sizes=(20,), sim_seconds=1.0, avoidance="none", timed=False, seed=1)
+    assert [n for n, _ in sites] == [10, 20, 20, 20]
+    after_ten, alone, other_seed = (layout for _, layout in sites[1:])
+    assert after_ten == alone and alone != other_seed
+
+
+def test_loops_taking_turns_simulate_what_they_simulate_alone():
+    """Two worlds stepping in turns (a turn ends after every control period) give the same
+    simulation as each run alone: the same simulated time, contacts and re-plan paths."""
+    import functools
+    import time
+
+    from scenarios.bench.relay import Relay
+    from sim.spatial.world import PymunkWorld
+
+    def job(avoidance, clock):
+        out = loop.bench_sim(
+            sizes=(20,), sim_seconds=4.0, avoidance=avoidance, timed=False, clock=clock
+        )["20"]
+        return out["sim_s"], out["contact_share"]
+
+    alone = [job(avoidance, time.perf_counter) for avoidance in ("none", "orca")]
+    relay = Relay(slice_s=0.0)
+    with relay.ticking(PymunkWorld, "_control"):
+        turns = relay.run([functools.partial(job, a, relay.clock) for a in ("none", "orca")])
+    assert turns == alone
+    assert alone[0][1] > 0.0 and alone[1][1] == 0.0  # (contacts only without avoidance)
+    assert relay.turns[:6] == [0, 1, 0, 1, 0, 1] and len(relay.turns) > 100

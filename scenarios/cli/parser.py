@@ -443,9 +443,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--repeat",
         type=_positive_int,
         default=1,
-        help="rounds of the sim part, each timing the three loops in turn; every figure is "
-        "its loop's quickest round's, every price the median round's, with the price of each "
-        "round beside it: use 3 or more to compare two commits (default 1)",
+        help="rounds of the sim part; in each, an arena's three loops (without avoidance, "
+        "ORCA with the rules, ORCA alone) run side by side in turns of 20 ms, so a slow spell "
+        "of the machine falls on all three; every figure is its loop's quickest round's, every "
+        "price the median round's, with the price of each round beside it: use 3 or more to "
+        "compare two commits (default 1)",
     )
     b.add_argument(
         "--split",

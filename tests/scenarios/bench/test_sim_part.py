@@ -62,7 +62,8 @@ def test_the_sim_part_prices_avoidance_with_and_without_the_rules(monkeypatch):
 
 
 def test_repeated_rounds_take_each_loops_quickest_round_and_the_median_rounds_price(monkeypatch):
-    """Three rounds, each timing the three loops in turn; fake wall times per round. Each loop's
+    """Three rounds, each running each arena's three loops side by side (the fakes one after
+    the other, as they never pass the turn); fake wall times per round. Each loop's
     figures are its quickest round's (2.0 s without, 2.4 s with the rules, from different
     rounds: their ratio 1.2 is no round's price). The price is the median round's: rounds
     1.09, 1.5 and 1.0 give round 1's, with its ORCA-alone price (3.0 / 2.2); the busy arena's

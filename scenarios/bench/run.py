@@ -299,6 +299,26 @@ def run_bench(parts=PARTS, progress: bool = True, repeat: int = 1, split: bool =
     return out
 
 
+CALIB_RATIOS = ("calib_ratio", "control_calib_ratio", "physics_calib_ratio")
+
+
+def one_yardstick(rows: list[dict]) -> list[dict]:
+    """The loops of one arena (rows of ``bench_sim`` or :func:`bench_paper_loop`) measured
+    against one calibration step, the quickest of theirs: each loop times its own (the best
+    of three short runs, outside the turns), and those differ by more than the loops do on a
+    machine whose speed swings. Their figures in calibration steps are rescaled to it, so
+    that two loops' ratio of them is their ratio of wall time per step. In place; returns
+    ``rows``."""
+    calib = min(row["calib_step_us"] for row in rows)
+    for row in rows:
+        scale = row["calib_step_us"] / calib
+        for key in CALIB_RATIOS:
+            if key in row:
+                row[key] *= scale
+        row["calib_step_us"] = calib
+    return rows
+
+
 def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -> dict:
     """The ``sim`` part: the loops without avoidance, with ORCA and the traffic rules (the
     defaults), and with ORCA alone (rules off), and what avoidance costs.
@@ -321,7 +341,8 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -
     period and the physics steps (``avoidance_price[n]["price_parts"]``, with that round's own
     price, ``timed_price``) and gives each loop's control period and physics steps in
     calibration steps. The timers slow the loop with avoidance more than the one without,
-    which is why the price is not taken from that round."""
+    which is why the price is not taken from that round. In every round an arena's three loops
+    share one calibration step (:func:`one_yardstick`)."""
     import functools
     import time
 
@@ -333,16 +354,18 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -
     runs = (("sim", "none", "on"), ("sim_orca", "orca", "on"), ("sim_orca_alone", "orca", "off"))
 
     def three(loop, timed: bool) -> list[dict]:
-        """``loop(avoidance, traffic, clock)`` of each run: in turns, or timed one by one."""
+        """``loop(avoidance, traffic, clock)`` of each run: in turns, or timed one by one;
+        measured against one calibration step (:func:`one_yardstick`)."""
         if timed:
-            return [loop(avoidance, traffic, time.perf_counter) for _, avoidance, traffic in runs]
+            rows = [loop(avoidance, traffic, time.perf_counter) for _, avoidance, traffic in runs]
+            return one_yardstick(rows)
         relay = Relay()
         jobs = [
             functools.partial(loop, avoidance, traffic, relay.clock)
             for _, avoidance, traffic in runs
         ]
         with relay.ticking(PymunkWorld, "_control"):  # a turn may end after a control period
-            return relay.run(jobs)
+            return one_yardstick(relay.run(jobs))
 
     def one_round(timed: bool) -> dict:
         got: dict[str, dict] = {key: {} for key, _, _ in runs}

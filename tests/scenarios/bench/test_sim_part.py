@@ -373,3 +373,20 @@ def test_loops_taking_turns_simulate_what_they_simulate_alone():
     assert turns == alone
     assert alone[0][1] > 0.0 and alone[1][1] == 0.0  # (contacts only without avoidance)
     assert relay.turns[:6] == [0, 1, 0, 1, 0, 1] and len(relay.turns) > 100
+
+
+def test_an_arenas_loops_share_the_quickest_calibration_step_of_theirs():
+    """Three loops timed their own calibration steps at 2, 1 and 4 µs: all are given 1 µs and
+    their figures in calibration steps grow by 2, 1 and 4, so that their ratios are those of
+    the loops' wall time per step (the timers' figures, where present, alike)."""
+    rows = [
+        {"calib_step_us": 2.0, "calib_ratio": 3.0, "control_calib_ratio": 1.0},
+        {"calib_step_us": 1.0, "calib_ratio": 5.0},
+        {"calib_step_us": 4.0, "calib_ratio": 2.0, "physics_calib_ratio": 0.5, "wall_s": 9.0},
+    ]
+    assert run.one_yardstick(rows) is rows
+    assert rows == [
+        {"calib_step_us": 1.0, "calib_ratio": 6.0, "control_calib_ratio": 2.0},
+        {"calib_step_us": 1.0, "calib_ratio": 5.0},
+        {"calib_step_us": 1.0, "calib_ratio": 8.0, "physics_calib_ratio": 2.0, "wall_s": 9.0},
+    ]

@@ -32,7 +32,7 @@ def one_heap() -> bool:
     it did (False where there is no glibc ``mallopt``)."""
     try:
         mallopt = ctypes.CDLL(None).mallopt
-    except (AttributeError, OSError):
+    except (AttributeError, OSError, TypeError):  # no glibc (macOS, musl, Windows)
         return False
     return bool(mallopt(_M_ARENA_MAX, 1))
 

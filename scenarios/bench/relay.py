@@ -1,12 +1,13 @@
 """Loops run in turns, one at a time, so that a shared machine's swings of speed fall on all alike.
 
-On a shared machine the CPU's speed swings by up to about 1.8x within a second (another tenant's
-load), so two loops of a few seconds timed one after the other can differ by that much for
-reasons of their own. A :class:`Relay` runs several jobs (the loops without and with avoidance)
-in threads that take turns: one job runs while the others wait, and it passes the turn on once
-it has run ``slice_s`` (at the next :meth:`Relay.tick`, which ``mrta bench`` calls once per
-control period). Each job's clock (:meth:`Relay.clock`) counts only its own turns. Turns of a
-few tens of milliseconds give every job the same mixture of quick and slow spells.
+On the shared machine the bench was built on, the CPU's speed switches between two levels
+nearly a factor of two apart, several times a second, so two loops of a few seconds timed one
+after the other can differ by that much for no reason of their own. A :class:`Relay` runs
+several jobs (the loops without and with avoidance) in threads that take turns: one job runs
+while the others wait, and it passes the turn on once it has run ``slice_s`` (at the next
+:meth:`Relay.tick`, which ``mrta bench`` calls once per control period). Each job's clock
+(:meth:`Relay.clock`) counts only its own turns. Turns of a few tens of milliseconds give every
+job the same mixture of quick and slow spells.
 
 Python threads allocate from their own malloc arenas on glibc, which made the loop about a
 quarter slower than in the main thread here; :meth:`Relay.run` therefore asks glibc for one

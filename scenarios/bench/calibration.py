@@ -56,3 +56,24 @@ def calibration_step_s(n: int, steps: int, repeat: int = 3) -> float:
             step(DT_S)
         best = min(best, (time.perf_counter() - t0) / steps)
     return best
+
+
+def calibration_while(n: int, more, tick, clock, chunk: int = 16) -> float:
+    """Seconds per step of the calibration space of ``n`` robots, stepped ``chunk`` steps at
+    a time, with ``tick()`` after each chunk, until ``more()`` is False (at least one chunk):
+    the whole time by ``clock``, over the steps. Run as a job of a ``Relay`` that lasts as
+    long as the loops beside it (``more``: another job has not ended), it is timed in the same
+    mixture of the machine's quick and slow spells as they are, where
+    :func:`calibration_step_s`, the best of three short runs, catches a quick spell."""
+    space = calibration_space(n)
+    step = space.step
+    steps = 0
+    t0 = clock()
+    while True:
+        for _ in range(chunk):
+            step(DT_S)
+        steps += chunk
+        tick()
+        if not more():
+            break
+    return (clock() - t0) / steps

@@ -98,6 +98,10 @@ class Relay:
             return self.now()
         return self._spent[k] + self.now() - self._since[k]
 
+    def running(self) -> int:
+        """How many jobs have not ended yet (the caller's own included)."""
+        return self._done.count(False)
+
     def tick(self) -> None:
         """Called by a job now and then: passes the turn on once this turn has run
         ``slice_s``, and returns when the job's turn comes again (at once if it is the only

@@ -51,6 +51,7 @@ PRICE_LABELS = {
 }
 PAPER_SETS = 8  # task sets of paper_spatial timed by the 10-robot figure (about 3,400 s simulated)
 SIM_SIZES = (10, 100, 1000)  # robots in the sim part's busy synthetic arenas
+PAPER_ROBOTS = 10  # paper_spatial's team (the calibration space beside its loops)
 
 
 class PlannedMarket:
@@ -302,14 +303,14 @@ def run_bench(parts=PARTS, progress: bool = True, repeat: int = 1, split: bool =
 CALIB_RATIOS = ("calib_ratio", "control_calib_ratio", "physics_calib_ratio")
 
 
-def one_yardstick(rows: list[dict]) -> list[dict]:
+def one_yardstick(rows: list[dict], calib_us: float | None = None) -> list[dict]:
     """The loops of one arena (rows of ``bench_sim`` or :func:`bench_paper_loop`) measured
-    against one calibration step, the quickest of theirs: each loop times its own (the best
-    of three short runs, outside the turns), and those differ by more than the loops do on a
-    machine whose speed swings. Their figures in calibration steps are rescaled to it, so
+    against one calibration step: ``calib_us``, or if None the quickest of theirs (each loop
+    times its own, the best of three short runs, and those differ by more than the loops do on
+    a machine whose speed swings). Their figures in calibration steps are rescaled to it, so
     that two loops' ratio of them is their ratio of wall time per step. In place; returns
     ``rows``."""
-    calib = min(row["calib_step_us"] for row in rows)
+    calib = min(row["calib_step_us"] for row in rows) if calib_us is None else calib_us
     for row in rows:
         scale = row["calib_step_us"] / calib
         for key in CALIB_RATIOS:
@@ -342,10 +343,14 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -
     price, ``timed_price``) and gives each loop's control period and physics steps in
     calibration steps. The timers slow the loop with avoidance more than the one without,
     which is why the price is not taken from that round. In every round an arena's three loops
-    share one calibration step (:func:`one_yardstick`)."""
+    share one calibration step (:func:`one_yardstick`): in the rounds in turns that of the
+    calibration space stepped as a fourth job in turns beside them, as long as they run
+    (``scenarios.bench.calibration.calibration_while``), so that it is timed in the same
+    mixture of quick and slow spells; in the timed round the quickest of their own."""
     import functools
     import time
 
+    from scenarios.bench.calibration import calibration_while
     from scenarios.bench.loop import TIMED_PARTS, bench_sim
     from scenarios.bench.relay import Relay
     from sim.spatial.world import PymunkWorld
@@ -353,9 +358,11 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -
     say("sim: the whole loop, physics at 60 Hz, control at 10 Hz, without and with ORCA ...")
     runs = (("sim", "none", "on"), ("sim_orca", "orca", "on"), ("sim_orca_alone", "orca", "off"))
 
-    def three(loop, timed: bool) -> list[dict]:
-        """``loop(avoidance, traffic, clock)`` of each run: in turns, or timed one by one;
-        measured against one calibration step (:func:`one_yardstick`)."""
+    def three(loop, timed: bool, robots: int) -> list[dict]:
+        """``loop(avoidance, traffic, clock)`` of each run (``robots`` of them): in turns,
+        beside the calibration space stepped in turns as long as they run (its step is
+        theirs), or timed one by one against the quickest of their own calibration steps
+        (:func:`one_yardstick`)."""
         if timed:
             rows = [loop(avoidance, traffic, time.perf_counter) for _, avoidance, traffic in runs]
             return one_yardstick(rows)
@@ -364,8 +371,14 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -
             functools.partial(loop, avoidance, traffic, relay.clock)
             for _, avoidance, traffic in runs
         ]
+
+        def more() -> bool:  # a loop beside the calibration space has not ended
+            return relay.running() > 1
+
+        jobs.append(functools.partial(calibration_while, robots, more, relay.tick, relay.clock))
         with relay.ticking(PymunkWorld, "_control"):  # a turn may end after a control period
-            return one_yardstick(relay.run(jobs))
+            *rows, calib_s = relay.run(jobs)
+        return one_yardstick(rows, 1e6 * calib_s)
 
     def one_round(timed: bool) -> dict:
         got: dict[str, dict] = {key: {} for key, _, _ in runs}
@@ -381,13 +394,13 @@ def bench_sim_part(say, repeat: int = 1, split: bool = False, sizes=SIM_SIZES) -
                     clock=clock,
                 )[str(n)]
 
-            for (key, _, _), row in zip(runs, three(synthetic, timed), strict=True):
+            for (key, _, _), row in zip(runs, three(synthetic, timed, n), strict=True):
                 got[key][str(n)] = row
 
         def paper(avoidance, traffic, clock):
             return bench_paper_loop(avoidance=avoidance, traffic=traffic, timed=timed, clock=clock)
 
-        for (key, _, _), row in zip(runs, three(paper, timed), strict=True):
+        for (key, _, _), row in zip(runs, three(paper, timed, PAPER_ROBOTS), strict=True):
             row.update({f"busy_{k}": v for k, v in got[key]["10"].items()})
             got[key]["10"] = row
         return got

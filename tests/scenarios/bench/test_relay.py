@@ -119,3 +119,22 @@ def test_ticking_adds_a_tick_to_a_method_and_restores_it_even_after_an_error():
         assert relay.turns == [0, 1, 0, 1, 0]  # job 0's third call: alone, its turn goes on
         raise RuntimeError
     assert Loop.__dict__["period"] is own
+
+
+def test_running_counts_the_jobs_not_ended_yet():
+    clock = FakeTime()
+    relay = Relay(slice_s=0.0, now=clock)
+    seen = []
+
+    def job(steps):
+        def run():
+            for _ in range(steps):
+                seen.append(relay.running())
+                relay.tick()
+
+        return run
+
+    relay.run([job(1), job(3), job(2)])
+    # turns 0, 1, 2; job 0 ends at its second; 1, 2 (job 2 waits in its last tick), 1
+    assert seen == [3, 3, 3, 2, 2, 2]
+    assert relay.running() == 0

@@ -300,10 +300,13 @@ def test_untimed_rounds_run_each_arenas_loops_in_turns_and_the_timed_round_one_b
     monkeypatch,
 ):
     """The rounds the prices come from run an arena's three loops through a relay (each timed
-    by the relay's clock, the world's control period passing the turn); the timed round runs
-    them one after the other on the plain clock, the world's control period its own."""
+    by the relay's clock, the world's control period passing the turn), beside the
+    calibration space of as many robots, whose step (2 µs here) becomes the loops' yardstick;
+    the timed round runs them one after the other on the plain clock, the world's control
+    period its own, against the quickest of their own calibration steps (1 µs)."""
     import time
 
+    from scenarios.bench import calibration
     from scenarios.bench.relay import Relay
     from sim.spatial.world import PymunkWorld
 
@@ -323,11 +326,23 @@ def test_untimed_rounds_run_each_arenas_loops_in_turns_and_the_timed_round_one_b
     def fake_sim(sizes, allocator=None, avoidance="none", traffic="on", timed=True, clock=None):
         return {str(n): record(timed, clock) for n in sizes}
 
+    yardsticks = []
+
+    def fake_calibration(robots, more, tick, clock):
+        yardsticks.append((robots, more(), clock == tick.__self__.clock))
+        return 2e-6
+
     monkeypatch.setattr(loop, "bench_sim", fake_sim)
     monkeypatch.setattr(run, "bench_paper_loop", lambda timed, clock, **kw: record(timed, clock))
-    run.bench_sim_part(lambda line: None, split=True, sizes=(10, 100))
+    monkeypatch.setattr(calibration, "calibration_while", fake_calibration)
+    out = run.bench_sim_part(lambda line: None, split=True, sizes=(10, 100))
     assert calls == [(False, True, False)] * 9 + [(True, False, True)] * 9
     assert PymunkWorld.__dict__["_control"] is own
+    # the fake loops never pass the turn: each ends before the calibration job's first turn
+    assert yardsticks == [(10, False, True), (100, False, True), (10, False, True)]
+    assert out["sim"]["100"]["calib_step_us"] == pytest.approx(2.0)
+    assert out["sim"]["100"]["calib_ratio"] == pytest.approx(0.5)
+    assert out["sim_orca"]["10"]["busy_calib_step_us"] == pytest.approx(2.0)
 
 
 def test_each_size_has_its_own_arena_whatever_ran_before(monkeypatch):

@@ -53,8 +53,8 @@ def test_a_turn_lasts_until_the_job_has_run_a_slice():
 
 
 def test_no_two_jobs_run_at_once():
-    """Each job marks itself the owner after its tick and sleeps (letting any thread that
-    were not held back run): the owner is still itself when it wakes."""
+    """Each job marks itself the owner after its tick and sleeps (letting any thread that is
+    not held back run): the owner is still itself when it wakes."""
     relay = Relay(slice_s=0.0)
     owner = [None]
     clashes = []

@@ -366,20 +366,32 @@ def test_each_size_has_its_own_arena_whatever_ran_before(monkeypatch):
     assert after_ten == alone and alone != other_seed
 
 
-def test_loops_taking_turns_simulate_what_they_simulate_alone():
+def test_loops_taking_turns_simulate_what_they_simulate_alone(monkeypatch):
     """Two worlds stepping in turns (a turn ends after every control period) give the same
-    simulation as each run alone: the same simulated time, contacts and re-plan paths."""
+    simulation as each run alone: the same simulated time, contacts, and robot poses bit for
+    bit at the end of the timed loop."""
     import functools
+    import threading
     import time
 
     from scenarios.bench.relay import Relay
     from sim.spatial.world import PymunkWorld
 
+    real_run = loop._run
+    poses = threading.local()
+
+    def spy(world, *args, **kwargs):
+        out = real_run(world, *args, **kwargs)
+        poses.last = world.fleet.last_z_m.tobytes() + world.fleet.last_th_rad.tobytes()
+        return out
+
+    monkeypatch.setattr(loop, "_run", spy)
+
     def job(avoidance, clock):
         out = loop.bench_sim(
             sizes=(20,), sim_seconds=4.0, avoidance=avoidance, timed=False, clock=clock
         )["20"]
-        return out["sim_s"], out["contact_share"]
+        return out["sim_s"], out["contact_share"], poses.last
 
     alone = [job(avoidance, time.perf_counter) for avoidance in ("none", "orca")]
     relay = Relay(slice_s=0.0)
@@ -387,6 +399,7 @@ def test_loops_taking_turns_simulate_what_they_simulate_alone():
         turns = relay.run([functools.partial(job, a, relay.clock) for a in ("none", "orca")])
     assert turns == alone
     assert alone[0][1] > 0.0 and alone[1][1] == 0.0  # (contacts only without avoidance)
+    assert alone[0][2] != alone[1][2]  # (the poses tell the two runs apart)
     assert relay.turns[:6] == [0, 1, 0, 1, 0, 1] and len(relay.turns) > 100
 
 
